@@ -1,0 +1,337 @@
+//! Codecs: PNG / JPEG (8 and 16 bit; gray, gray+alpha, RGB, RGBA) and
+//! OpenEXR (any channels, f16/f32/u32 read as f32). Buffers live in
+//! [`Image`]; this module only converts. Every write goes to a temporary file
+//! in the destination folder and is renamed into place when complete, so a
+//! failed or interrupted run never leaves a half-written file.
+//!
+//! Values: 8/16-bit files map to [0, 1] as stored (sRGB-encoded for
+//! ordinary photos; see [`super::color`] to linearise). EXR values are kept
+//! as they are.
+
+use super::{ChannelGroup, Image, MAX_SIDE};
+use crate::error::{Error, Result};
+use std::io::{Cursor, Write};
+use std::path::{Path, PathBuf};
+
+/// Bits per channel for PNG output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum BitDepth {
+    Eight,
+    Sixteen,
+}
+
+const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
+/// Load an image file; the format is recognised from its content.
+pub fn load(path: impl AsRef<Path>) -> Result<Image> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| Error::Read { path: path.into(), source })?;
+    decode(&bytes, path)
+}
+
+/// Decode an in-memory file; `path` only names it in errors.
+pub fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
+    let bad = |reason: String| Error::Decode { path: path.into(), reason };
+    if bytes.starts_with(&EXR_MAGIC) {
+        return decode_exr(bytes).map_err(|e| bad(e.to_string()));
+    }
+    let reader = || image::ImageReader::new(Cursor::new(bytes)).with_guessed_format();
+    let reader = reader().map_err(|e| bad(e.to_string()))?;
+    if reader.format().is_none() {
+        return Err(bad("unknown file format; expected PNG, JPEG or OpenEXR".into()));
+    }
+    let (w, h) = reader.into_dimensions().map_err(|e| bad(e.to_string()))?;
+    check_side(w as usize, h as usize).map_err(|e| bad(e.to_string()))?;
+    let mut reader = image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| bad(e.to_string()))?;
+    reader.no_limits();
+    let dynamic = reader.decode().map_err(|e| bad(e.to_string()))?;
+    from_dynamic(dynamic).map_err(|e| bad(e.to_string()))
+}
+
+fn check_side(w: usize, h: usize) -> Result<()> {
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
+        return Err(Error::invalid(format!("size {w}x{h} is outside 1..={MAX_SIDE} per side")));
+    }
+    Ok(())
+}
+
+fn from_dynamic(d: image::DynamicImage) -> Result<Image> {
+    use image::DynamicImage as D;
+    let (w, h) = (d.width() as usize, d.height() as usize);
+    let n8 = |v: Vec<u8>| v.into_iter().map(|b| b as f32 / 255.0).collect::<Vec<f32>>();
+    let n16 = |v: Vec<u16>| v.into_iter().map(|b| b as f32 / 65535.0).collect::<Vec<f32>>();
+    let (channels, data) = match d {
+        D::ImageLuma8(b) => (1, n8(b.into_raw())),
+        D::ImageLumaA8(b) => (2, n8(b.into_raw())),
+        D::ImageRgb8(b) => (3, n8(b.into_raw())),
+        D::ImageRgba8(b) => (4, n8(b.into_raw())),
+        D::ImageLuma16(b) => (1, n16(b.into_raw())),
+        D::ImageLumaA16(b) => (2, n16(b.into_raw())),
+        D::ImageRgb16(b) => (3, n16(b.into_raw())),
+        D::ImageRgba16(b) => (4, n16(b.into_raw())),
+        D::ImageRgb32F(b) => (3, b.into_raw()),
+        D::ImageRgba32F(b) => (4, b.into_raw()),
+        other => (4, other.to_rgba32f().into_raw()),
+    };
+    Image::from_data(w, h, channels, data)
+}
+
+/// EXR channel order: R, G, B, A first (in that order), then the others by name.
+fn exr_rank(name: &str) -> (usize, String) {
+    let rank = ["R", "G", "B", "A"].iter().position(|&c| c == name).unwrap_or(4);
+    (rank, name.to_string())
+}
+
+fn decode_exr(bytes: &[u8]) -> std::result::Result<Image, Box<dyn std::error::Error>> {
+    use exr::prelude::*;
+    let img = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(Cursor::new(bytes))?;
+    let layer = img.layer_data;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    check_side(w, h)?;
+    let mut chans: Vec<(String, Vec<f32>)> = layer
+        .channel_data
+        .list
+        .into_iter()
+        .map(|c| {
+            let values: Vec<f32> = match c.sample_data {
+                FlatSamples::F16(v) => v.into_iter().map(f16::to_f32).collect(),
+                FlatSamples::F32(v) => v,
+                FlatSamples::U32(v) => v.into_iter().map(|u| u as f32).collect(),
+            };
+            (c.name.to_string(), values)
+        })
+        .collect();
+    chans.sort_by_key(|(n, _)| exr_rank(n));
+    let n = chans.len();
+    if n == 0 {
+        return Err("the file has no channels".into());
+    }
+    let mut data = vec![0f32; w * h * n];
+    for (c, (_, values)) in chans.iter().enumerate() {
+        for (p, v) in values.iter().enumerate() {
+            data[p * n + c] = *v;
+        }
+    }
+    let mut out = super::Image::from_data(w, h, n, data)?;
+    let names: Vec<&str> = chans.iter().map(|(n, _)| n.as_str()).collect();
+    out.set_groups(exr_groups(&names))?;
+    Ok(out)
+}
+
+/// Group EXR channels: R,G,B -> `rgb`, A -> `alpha`, Y -> `gray`, others by name.
+fn exr_groups(names: &[&str]) -> Vec<ChannelGroup> {
+    let mut groups = Vec::new();
+    let mut c = 0;
+    while c < names.len() {
+        if names[c..].starts_with(&["R", "G", "B"]) {
+            groups.push(ChannelGroup { name: "rgb".into(), channels: c..c + 3 });
+            c += 3;
+            continue;
+        }
+        let name = match names[c] {
+            "A" => "alpha",
+            "Y" => "gray",
+            other => other,
+        };
+        groups.push(ChannelGroup { name: name.to_string(), channels: c..c + 1 });
+        c += 1;
+    }
+    groups
+}
+
+/// EXR channel names for an image's channels, from its groups.
+fn exr_channel_names(img: &Image) -> Vec<String> {
+    let mut names = vec![String::new(); img.channels()];
+    for g in img.groups() {
+        let len = g.channels.len();
+        for (i, c) in g.channels.clone().enumerate() {
+            names[c] = match (g.name.as_str(), len) {
+                ("rgb", 3) => ["R", "G", "B"][i].to_string(),
+                ("alpha", 1) => "A".to_string(),
+                ("gray", 1) => "Y".to_string(),
+                (name, 1) => name.to_string(),
+                (name, _) => format!("{name}.{i}"),
+            };
+        }
+    }
+    for (c, n) in names.iter_mut().enumerate() {
+        if n.is_empty() {
+            *n = format!("channel{c}");
+        }
+    }
+    names
+}
+
+/// Write `bytes` produced by `fill` to `path` atomically: a temporary file in
+/// the same folder, renamed over `path` only once complete.
+pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut Vec<u8>) -> Result<()>) -> Result<()> {
+    let werr = |source| Error::Write { path: path.into(), source };
+    let mut bytes = Vec::new();
+    fill(&mut bytes)?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path.file_name().ok_or_else(|| Error::invalid(format!("{} is not a file path", path.display())))?;
+    let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(&bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(werr(e));
+    }
+    Ok(())
+}
+
+/// Save as PNG. 1, 2, 3 or 4 channels (gray, gray+alpha, RGB, RGBA); values
+/// are clamped to [0, 1].
+pub fn save_png(img: &Image, path: impl AsRef<Path>, depth: BitDepth) -> Result<()> {
+    let path = path.as_ref();
+    write_atomic(path, |buf| encode_png(img, depth, buf))
+}
+
+/// Encode as PNG into `out` (see [`save_png`]).
+pub fn encode_png(img: &Image, depth: BitDepth, out: &mut Vec<u8>) -> Result<()> {
+    use image::{ExtendedColorType as E, ImageEncoder};
+    let color = match (img.channels(), depth) {
+        (1, BitDepth::Eight) => E::L8,
+        (2, BitDepth::Eight) => E::La8,
+        (3, BitDepth::Eight) => E::Rgb8,
+        (4, BitDepth::Eight) => E::Rgba8,
+        (1, BitDepth::Sixteen) => E::L16,
+        (2, BitDepth::Sixteen) => E::La16,
+        (3, BitDepth::Sixteen) => E::Rgb16,
+        (4, BitDepth::Sixteen) => E::Rgba16,
+        (n, _) => return Err(Error::invalid(format!("PNG holds 1 to 4 channels, this image has {n}; save it as EXR"))),
+    };
+    let bytes: Vec<u8> = match depth {
+        BitDepth::Eight => img.data().iter().map(|&v| (v.clamp(0.0, 1.0) * 255.0).round() as u8).collect(),
+        BitDepth::Sixteen => img
+            .data()
+            .iter()
+            .flat_map(|&v| ((v.clamp(0.0, 1.0) * 65535.0).round() as u16).to_ne_bytes())
+            .collect(),
+    };
+    image::codecs::png::PngEncoder::new(out)
+        .write_image(&bytes, img.width() as u32, img.height() as u32, color)
+        .map_err(|e| Error::Internal(format!("PNG encoding failed: {e}")))
+}
+
+/// Save as OpenEXR with every channel as f32, named from the channel groups.
+pub fn save_exr(img: &Image, path: impl AsRef<Path>) -> Result<()> {
+    use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, SmallVec, WritableImage};
+    let path = path.as_ref();
+    write_atomic(path, |buf| {
+        let names = exr_channel_names(img);
+        let n = img.channels();
+        let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = names
+            .iter()
+            .enumerate()
+            .map(|(c, name)| {
+                let values: Vec<f32> = img.data().iter().skip(c).step_by(n).copied().collect();
+                AnyChannel::new(name.as_str(), FlatSamples::F32(values))
+            })
+            .collect();
+        let layer = Layer::new((img.width(), img.height()), LayerAttributes::named("patina"), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
+        exr::prelude::Image::from_layer(layer)
+            .write()
+            .to_buffered(Cursor::new(buf))
+            .map_err(|e| Error::Internal(format!("EXR encoding failed: {e}")))
+    })
+}
+
+/// Save by extension: `.exr` as OpenEXR, anything else as 8-bit PNG.
+pub fn save(img: &Image, path: impl AsRef<Path>) -> Result<()> {
+    let path = path.as_ref();
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("exr") => save_exr(img, path),
+        Some("png") => save_png(img, path, BitDepth::Eight),
+        _ => Err(Error::invalid(format!("{}: output must end in .png or .exr", path.display()))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gradient(c: usize) -> Image {
+        Image::from_fn(7, 5, c, |x, y, p| {
+            for (i, v) in p.iter_mut().enumerate() {
+                *v = ((x * 5 + y * 3 + i * 17) % 31) as f32 / 30.0;
+            }
+        })
+    }
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("patina-io-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn png_round_trips_every_layout_at_both_depths() {
+        let dir = temp_dir("png");
+        for c in 1..=4 {
+            for (depth, step) in [(BitDepth::Eight, 255.0), (BitDepth::Sixteen, 65535.0)] {
+                let img = gradient(c);
+                let p = dir.join(format!("{c}-{step}.png"));
+                save_png(&img, &p, depth).unwrap();
+                let back = load(&p).unwrap();
+                assert_eq!(back.channels(), c, "alpha and gray must survive");
+                for (a, b) in img.data().iter().zip(back.data()) {
+                    assert!((a - b).abs() <= 0.5 / step + 1e-6);
+                }
+            }
+        }
+        assert!(matches!(save_png(&gradient(5), dir.join("x.png"), BitDepth::Eight), Err(Error::InvalidInput(_))));
+        assert!(!dir.join("x.png").exists());
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn exr_round_trips_many_channels_exactly() {
+        let dir = temp_dir("exr");
+        let mut img = gradient(9).map(|v| v * 40.0 - 3.0);
+        img.set_groups(vec![
+            ChannelGroup { name: "rgb".into(), channels: 0..3 },
+            ChannelGroup { name: "rough".into(), channels: 3..4 },
+            ChannelGroup { name: "coef".into(), channels: 4..9 },
+        ])
+        .unwrap();
+        let p = dir.join("m.exr");
+        save_exr(&img, &p).unwrap();
+        let back = load(&p).unwrap();
+        assert_eq!(back.channels(), 9);
+        assert_eq!(back.group("rgb"), Some(0..3));
+        // R,G,B come back first and exact; the other channels keep their values (sorted by name).
+        assert_eq!(back.select_channels(0..3), img.select_channels(0..3));
+        let mut a: Vec<u32> = img.data().iter().map(|v| v.to_bits()).collect();
+        let mut b: Vec<u32> = back.data().iter().map(|v| v.to_bits()).collect();
+        a.sort();
+        b.sort();
+        assert_eq!(a, b);
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn corrupt_and_missing_files_are_clear_errors() {
+        let dir = temp_dir("bad");
+        let p = dir.join("bad.png");
+        std::fs::write(&p, b"\x89PNG\r\n\x1a\nthis is not a png").unwrap();
+        assert!(matches!(load(&p), Err(Error::Decode { .. })));
+        std::fs::write(&p, b"hello").unwrap();
+        assert!(matches!(load(&p), Err(Error::Decode { .. })));
+        assert!(matches!(load(dir.join("missing.png")), Err(Error::Read { .. })));
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+}
