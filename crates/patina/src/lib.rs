@@ -13,6 +13,8 @@
 pub mod error;
 pub mod image;
 pub mod rng;
+pub mod samples;
+pub mod synth;
 
 pub use error::{Error, Result};
 pub use image::{ChannelGroup, Image, Mask};

@@ -1,0 +1,122 @@
+//! Procedural textures patina makes itself, for the demo and the tests:
+//! no data files needed. Each is a deterministic function of its size and
+//! seed.
+
+use crate::image::Image;
+use crate::rng;
+
+/// A hash of lattice point (x, y) under `seed`, uniform in [0, 1).
+fn lattice(seed: u64, x: i64, y: i64) -> f32 {
+    (rng::derive(seed, &[x as u64, y as u64]) >> 40) as f32 / (1u64 << 24) as f32
+}
+
+/// Smooth value noise at (x, y) with lattice spacing 1, in [0, 1).
+pub fn value_noise(seed: u64, x: f32, y: f32) -> f32 {
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let s = |t: f32| t * t * (3.0 - 2.0 * t);
+    let (sx, sy) = (s(fx), s(fy));
+    let (ix, iy) = (x0 as i64, y0 as i64);
+    let a = lattice(seed, ix, iy) * (1.0 - sx) + lattice(seed, ix + 1, iy) * sx;
+    let b = lattice(seed, ix, iy + 1) * (1.0 - sx) + lattice(seed, ix + 1, iy + 1) * sx;
+    a * (1.0 - sy) + b * sy
+}
+
+/// Fractal value noise: `octaves` octaves from wavelength `scale` pixels
+/// down, each half the amplitude; result in about [0, 1).
+pub fn fractal_noise(seed: u64, x: f32, y: f32, scale: f32, octaves: usize) -> f32 {
+    let (mut sum, mut amp, mut norm, mut freq) = (0.0, 1.0, 0.0, 1.0 / scale);
+    for o in 0..octaves {
+        sum += amp * value_noise(seed.wrapping_add(o as u64 * 0x9e37), x * freq, y * freq);
+        norm += amp;
+        amp *= 0.5;
+        freq *= 2.0;
+    }
+    sum / norm
+}
+
+/// Running-bond brick wall: bricks of 30 x 12 px with 3 px mortar, a colour
+/// per brick and grain noise. Strong regular structure: seams and
+/// misaligned mortar lines show at once.
+pub fn bricks(width: usize, height: usize, seed: u64) -> Image {
+    let (bw, bh, mortar) = (30usize, 12usize, 3usize);
+    Image::from_fn(width, height, 3, |x, y, p| {
+        let row = y / (bh + mortar);
+        let shift = if row % 2 == 1 { (bw + mortar) / 2 } else { 0 };
+        let xs = x + shift;
+        let col = xs / (bw + mortar);
+        let (in_x, in_y) = (xs % (bw + mortar), y % (bh + mortar));
+        let grain = fractal_noise(seed ^ 0x51, x as f32, y as f32, 6.0, 3) - 0.5;
+        if in_x >= bw || in_y >= bh {
+            let v = 0.72 + 0.12 * grain;
+            p.copy_from_slice(&[v, v * 0.97, v * 0.92]);
+        } else {
+            let tone = lattice(seed ^ 0xb1, col as i64, row as i64);
+            let base = [0.55 + 0.2 * tone, 0.22 + 0.1 * tone, 0.15 + 0.05 * tone];
+            // Darker rim inside each brick, for relief.
+            let edge = in_x.min(bw - 1 - in_x).min(in_y).min(bh - 1 - in_y) as f32;
+            let shade = 0.8 + 0.2 * (edge / 2.0).min(1.0);
+            for c in 0..3 {
+                p[c] = (base[c] * shade + 0.18 * grain).clamp(0.0, 1.0);
+            }
+        }
+    })
+}
+
+/// Cobbles: Voronoi cells on a jittered 24 px grid, each cell its own stone
+/// colour, dark joints, speckle noise. Irregular structure.
+pub fn cobbles(width: usize, height: usize, seed: u64) -> Image {
+    let cell = 24.0f32;
+    Image::from_fn(width, height, 3, |x, y, p| {
+        let (fx, fy) = (x as f32 / cell, y as f32 / cell);
+        let (cx, cy) = (fx.floor() as i64, fy.floor() as i64);
+        let (mut d1, mut d2, mut id) = (f32::MAX, f32::MAX, (0, 0));
+        for j in -1..=1 {
+            for i in -1..=1 {
+                let (gx, gy) = (cx + i, cy + j);
+                let px = gx as f32 + 0.15 + 0.7 * lattice(seed, gx, gy);
+                let py = gy as f32 + 0.15 + 0.7 * lattice(seed ^ 0x77, gx, gy);
+                let d = ((px - fx).powi(2) + (py - fy).powi(2)).sqrt();
+                if d < d1 {
+                    (d2, d1, id) = (d1, d, (gx, gy));
+                } else if d < d2 {
+                    d2 = d;
+                }
+            }
+        }
+        let joint = ((d2 - d1) * cell / 3.0).clamp(0.0, 1.0);
+        let tone = lattice(seed ^ 0x99, id.0, id.1);
+        let speck = fractal_noise(seed ^ 0x5e, x as f32, y as f32, 3.0, 2) - 0.5;
+        let dome = 1.0 - 0.35 * d1;
+        let base = [0.45 + 0.25 * tone, 0.42 + 0.2 * tone, 0.38 + 0.12 * tone];
+        for c in 0..3 {
+            p[c] = ((base[c] * dome + 0.15 * speck) * (0.25 + 0.75 * joint)).clamp(0.0, 1.0);
+        }
+    })
+}
+
+/// Fractal colour noise (lichen-like blotches): a stochastic texture.
+pub fn blotches(width: usize, height: usize, seed: u64) -> Image {
+    Image::from_fn(width, height, 3, |x, y, p| {
+        let a = fractal_noise(seed, x as f32, y as f32, 16.0, 4);
+        let b = fractal_noise(seed ^ 0xabc, x as f32, y as f32, 5.0, 3);
+        let t = ((a - 0.45) * 6.0).clamp(0.0, 1.0);
+        let grey = 0.45 + 0.3 * (b - 0.5);
+        p[0] = grey * (1.0 - t) + (0.75 + 0.2 * (b - 0.5)) * t;
+        p[1] = grey * (1.0 - t) + (0.68 + 0.2 * (b - 0.5)) * t;
+        p[2] = grey * (1.0 - t) + 0.2 * t;
+    })
+}
+
+/// Named samples, for the CLI.
+pub const NAMES: [&str; 3] = ["bricks", "cobbles", "blotches"];
+
+/// A sample by name.
+pub fn by_name(name: &str, width: usize, height: usize, seed: u64) -> Option<Image> {
+    match name {
+        "bricks" => Some(bricks(width, height, seed)),
+        "cobbles" => Some(cobbles(width, height, seed)),
+        "blotches" => Some(blotches(width, height, seed)),
+        _ => None,
+    }
+}

@@ -1,0 +1,290 @@
+//! Masked sums of squared differences between a small template and every
+//! placement of it in a source image, by FFT cross-correlation:
+//!
+//! E(s) = sum_m M(m) sum_c w_c (T_c(m) - S_c(s + m))^2
+//!      = sum_m M sum_c w_c T_c^2  -  2 sum_c w_c corr(M T_c, S_c)(s)  +  corr(M, Q)(s)
+//!
+//! with Q = sum_c w_c S_c^2. The source's spectra are computed once; each
+//! template then costs one forward transform per channel (only its few
+//! non-zero rows are transformed) and one inverse transform for all terms
+//! together. This is what makes quilting's exhaustive candidate search fast.
+
+use crate::image::Image;
+use realfft::num_complex::Complex;
+use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+use rustfft::{Fft, FftPlanner};
+use std::sync::Arc;
+
+type C32 = Complex<f32>;
+
+/// Smallest n' >= n whose only prime factors are 2, 3 and 5 (fast FFT sizes).
+fn fast_size(n: usize) -> usize {
+    (n..).find(|&m| {
+        let mut k = m;
+        for p in [2, 3, 5] {
+            while k % p == 0 {
+                k /= p;
+            }
+        }
+        k == 1
+    })
+    .expect("a 5-smooth number exists above any n")
+}
+
+/// FFT plans for one transform size; spectra are stored column-major
+/// (`fw/2+1` columns of `fh` values each).
+struct Plans {
+    fw: usize,
+    fh: usize,
+    row_fwd: Arc<dyn RealToComplex<f32>>,
+    row_inv: Arc<dyn ComplexToReal<f32>>,
+    col_fwd: Arc<dyn Fft<f32>>,
+    col_inv: Arc<dyn Fft<f32>>,
+}
+
+impl Plans {
+    fn new(fw: usize, fh: usize) -> Self {
+        let mut rp = RealFftPlanner::<f32>::new();
+        let mut cp = FftPlanner::<f32>::new();
+        Plans {
+            fw,
+            fh,
+            row_fwd: rp.plan_fft_forward(fw),
+            row_inv: rp.plan_fft_inverse(fw),
+            col_fwd: cp.plan_fft_forward(fh),
+            col_inv: cp.plan_fft_inverse(fh),
+        }
+    }
+    fn cols(&self) -> usize {
+        self.fw / 2 + 1
+    }
+    fn spectrum_len(&self) -> usize {
+        self.cols() * self.fh
+    }
+
+    /// Spectrum of a kw x kh real array (row-major, stride `kw`) placed at the
+    /// origin of an fw x fh zero image.
+    fn forward(&self, values: &[f32], kw: usize, kh: usize, out: &mut [C32], scratch: &mut Scratch) {
+        let cols = self.cols();
+        out.iter_mut().for_each(|v| *v = C32::new(0.0, 0.0));
+        for y in 0..kh {
+            scratch.row.iter_mut().for_each(|v| *v = 0.0);
+            scratch.row[..kw].copy_from_slice(&values[y * kw..(y + 1) * kw]);
+            self.row_fwd
+                .process_with_scratch(&mut scratch.row, &mut scratch.row_spec, &mut scratch.fft)
+                .expect("buffer sizes come from the plan");
+            for (u, v) in scratch.row_spec.iter().enumerate() {
+                out[u * self.fh + y] = *v;
+            }
+        }
+        for u in 0..cols {
+            self.col_fwd.process_with_scratch(&mut out[u * self.fh..(u + 1) * self.fh], &mut scratch.fft);
+        }
+    }
+
+    /// Inverse of a column-major spectrum into an fw x fh real image
+    /// (scaled so that inverse(forward(x)) = x). Destroys `spec`.
+    fn inverse(&self, spec: &mut [C32], out: &mut [f32], scratch: &mut Scratch) {
+        let cols = self.cols();
+        for u in 0..cols {
+            self.col_inv.process_with_scratch(&mut spec[u * self.fh..(u + 1) * self.fh], &mut scratch.fft);
+        }
+        let scale = 1.0 / (self.fw * self.fh) as f32;
+        for y in 0..self.fh {
+            for u in 0..cols {
+                scratch.row_spec[u] = spec[u * self.fh + y];
+            }
+            // The DC (and Nyquist) bins of a real signal's spectrum are real;
+            // round-off must not make the inverse refuse them.
+            scratch.row_spec[0].im = 0.0;
+            if self.fw % 2 == 0 {
+                scratch.row_spec[cols - 1].im = 0.0;
+            }
+            self.row_inv
+                .process_with_scratch(&mut scratch.row_spec, &mut scratch.row, &mut scratch.fft)
+                .expect("buffer sizes come from the plan");
+            for (o, v) in out[y * self.fw..(y + 1) * self.fw].iter_mut().zip(&scratch.row) {
+                *o = v * scale;
+            }
+        }
+    }
+}
+
+/// Per-thread working buffers for [`Plans`].
+struct Scratch {
+    row: Vec<f32>,
+    row_spec: Vec<C32>,
+    fft: Vec<C32>,
+}
+
+/// A source image prepared for masked-SSD queries: the spectra of its
+/// weighted channels and of Q = sum_c w_c S_c^2.
+pub struct SpectralSource {
+    plans: Plans,
+    width: usize,
+    height: usize,
+    channels: usize,
+    weights: Vec<f32>,
+    spectra: Vec<Vec<C32>>,
+    squares: Vec<C32>,
+}
+
+/// Accumulates the terms of one query (see [`SpectralSource::add_term`]).
+pub struct Query {
+    acc: Vec<C32>,
+    kernel: Vec<C32>,
+    values: Vec<f32>,
+    constant: f64,
+    scratch: Scratch,
+    kw: usize,
+    kh: usize,
+}
+
+impl SpectralSource {
+    /// Prepare `source` with one weight per channel.
+    pub fn new(source: &Image, weights: &[f32]) -> Self {
+        assert_eq!(weights.len(), source.channels());
+        let (w, h, n) = (source.width(), source.height(), source.channels());
+        let plans = Plans::new(fast_size(w), fast_size(h));
+        let mut scratch = Self::scratch(&plans);
+        let mut plane = vec![0f32; w * h];
+        let mut spectra = Vec::with_capacity(n);
+        for c in 0..n {
+            for (p, v) in plane.iter_mut().enumerate() {
+                *v = source.data()[p * n + c];
+            }
+            let mut s = vec![C32::new(0.0, 0.0); plans.spectrum_len()];
+            plans.forward(&plane, w, h, &mut s, &mut scratch);
+            spectra.push(s);
+        }
+        for (p, v) in plane.iter_mut().enumerate() {
+            *v = (0..n).map(|c| weights[c] * source.data()[p * n + c].powi(2)).sum();
+        }
+        let mut squares = vec![C32::new(0.0, 0.0); plans.spectrum_len()];
+        plans.forward(&plane, w, h, &mut squares, &mut scratch);
+        SpectralSource { plans, width: w, height: h, channels: n, weights: weights.to_vec(), spectra, squares }
+    }
+
+    fn scratch(plans: &Plans) -> Scratch {
+        let len = plans.row_fwd.get_scratch_len().max(plans.row_inv.get_scratch_len());
+        let len = len.max(plans.col_fwd.get_inplace_scratch_len()).max(plans.col_inv.get_inplace_scratch_len());
+        Scratch { row: vec![0.0; plans.fw], row_spec: vec![C32::new(0.0, 0.0); plans.cols()], fft: vec![C32::new(0.0, 0.0); len] }
+    }
+
+    pub fn width(&self) -> usize {
+        self.width
+    }
+    pub fn height(&self) -> usize {
+        self.height
+    }
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// Start a query for templates of `kw` x `kh`.
+    pub fn query(&self, kw: usize, kh: usize) -> Query {
+        assert!(kw <= self.width && kh <= self.height, "template larger than the source");
+        let len = self.plans.spectrum_len();
+        Query {
+            acc: vec![C32::new(0.0, 0.0); len],
+            kernel: vec![C32::new(0.0, 0.0); len],
+            values: vec![0.0; kw * kh],
+            constant: 0.0,
+            scratch: Self::scratch(&self.plans),
+            kw,
+            kh,
+        }
+    }
+
+    /// Add `scale` x the masked SSD between `template` (kw x kh, this
+    /// source's channels, interleaved) under `mask` (kw x kh weights) and
+    /// every placement in the source.
+    pub fn add_term(&self, q: &mut Query, template: &[f32], mask: &[f32], scale: f32) {
+        let (kw, kh, n) = (q.kw, q.kh, self.channels);
+        assert_eq!(template.len(), kw * kh * n);
+        assert_eq!(mask.len(), kw * kh);
+        for c in 0..n {
+            let wc = self.weights[c];
+            if wc == 0.0 {
+                continue;
+            }
+            for (i, v) in q.values.iter_mut().enumerate() {
+                let t = template[i * n + c];
+                *v = mask[i] * t;
+                q.constant += (scale * wc * mask[i] * t * t) as f64;
+            }
+            self.plans.forward(&q.values, kw, kh, &mut q.kernel, &mut q.scratch);
+            let f = -2.0 * scale * wc;
+            for ((a, k), s) in q.acc.iter_mut().zip(&q.kernel).zip(&self.spectra[c]) {
+                *a += k.conj() * s * f;
+            }
+        }
+        self.plans.forward(mask, kw, kh, &mut q.kernel, &mut q.scratch);
+        for ((a, k), s) in q.acc.iter_mut().zip(&q.kernel).zip(&self.squares) {
+            *a += k.conj() * s * scale;
+        }
+    }
+
+    /// Finish: the summed cost of every valid placement, row-major over
+    /// (width - kw + 1) x (height - kh + 1), clamped at 0.
+    pub fn finish(&self, mut q: Query) -> Vec<f32> {
+        let (fw, fh) = (self.plans.fw, self.plans.fh);
+        let mut full = vec![0f32; fw * fh];
+        self.plans.inverse(&mut q.acc, &mut full, &mut q.scratch);
+        let (vw, vh) = (self.width - q.kw + 1, self.height - q.kh + 1);
+        let mut out = Vec::with_capacity(vw * vh);
+        let k = q.constant as f32;
+        for y in 0..vh {
+            out.extend(full[y * fw..y * fw + vw].iter().map(|v| (v + k).max(0.0)));
+        }
+        out
+    }
+}
+
+/// Exact masked weighted SSD of `template` (kw x kh) at source position (sx, sy).
+pub fn masked_ssd(source: &Image, weights: &[f32], template: &[f32], mask: &[f32], kw: usize, kh: usize, sx: usize, sy: usize) -> f32 {
+    let n = source.channels();
+    let mut sum = 0.0;
+    for y in 0..kh {
+        for x in 0..kw {
+            let m = mask[y * kw + x];
+            if m == 0.0 {
+                continue;
+            }
+            let s = source.pixel(sx + x, sy + y);
+            let t = &template[(y * kw + x) * n..(y * kw + x + 1) * n];
+            let d: f32 = (0..n).map(|c| weights[c] * (t[c] - s[c]).powi(2)).sum();
+            sum += m * d;
+        }
+    }
+    sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fft_costs_match_direct_sums_on_odd_sizes() {
+        let src = Image::from_fn(37, 29, 2, |x, y, p| {
+            p[0] = ((x * 13 + y * 7) % 11) as f32 / 11.0;
+            p[1] = ((x * y + 3) % 5) as f32 / 5.0;
+        });
+        let (kw, kh) = (9, 6);
+        let template: Vec<f32> = (0..kw * kh * 2).map(|i| ((i * 37) % 17) as f32 / 17.0).collect();
+        let mask: Vec<f32> = (0..kw * kh).map(|i| if i % kw < 3 || i / kw < 2 { 1.0 } else { 0.0 }).collect();
+        let weights = [0.7, 0.3];
+        let spectral = SpectralSource::new(&src, &weights);
+        let mut q = spectral.query(kw, kh);
+        spectral.add_term(&mut q, &template, &mask, 2.0);
+        let costs = spectral.finish(q);
+        assert_eq!(costs.len(), (37 - kw + 1) * (29 - kh + 1));
+        for sy in 0..29 - kh + 1 {
+            for sx in 0..37 - kw + 1 {
+                let want = 2.0 * masked_ssd(&src, &weights, &template, &mask, kw, kh, sx, sy);
+                let got = costs[sy * (37 - kw + 1) + sx];
+                assert!((want - got).abs() < 1e-3 * (1.0 + want), "at {sx},{sy}: {want} vs {got}");
+            }
+        }
+    }
+}

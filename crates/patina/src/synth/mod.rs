@@ -1,0 +1,22 @@
+//! The patch-synthesis engine every patina method is built on.
+//!
+//! - [`distance`]: how patches are compared, pluggable per channel group.
+//! - [`nnf`] and [`patchmatch`]: nearest-neighbour fields and their search.
+//! - [`vote`]: averaging overlapping patches into an image.
+//! - [`problem`]: the [`Synthesis`] builder describing one problem.
+//! - [`optimize`]: texture optimization (search + vote over a pyramid).
+
+pub mod correlate;
+pub mod distance;
+pub mod nnf;
+pub mod optimize;
+pub mod patchmatch;
+pub mod problem;
+pub mod vote;
+
+pub use distance::{GroupDistance, PatchMetric, TexelDistance};
+pub use nnf::{Match, Nnf, SourceDomain};
+pub use optimize::{OptimizeParams, Synthesized};
+pub use vote::VoteWeights;
+pub use patchmatch::PatchMatch;
+pub use problem::{Progress, Synthesis};

@@ -1,0 +1,189 @@
+//! [`Synthesis`]: the description of one synthesis problem (exemplar,
+//! output size, guides, masks, metric, seed), shared by texture
+//! optimization and quilting. Built builder-style:
+//!
+//! ```no_run
+//! # use patina::{Image, synth::{Synthesis, OptimizeParams}};
+//! # let exemplar = Image::new(64, 64, 3);
+//! let out = Synthesis::new(&exemplar).size(256, 256).seed(7).optimize(&OptimizeParams::default())?;
+//! # Ok::<(), patina::Error>(())
+//! ```
+
+use super::distance::PatchMetric;
+use crate::error::{Error, Result};
+use crate::image::{Image, Mask};
+
+/// Progress callback: (units done, units in all). Called from worker threads.
+pub type Progress<'a> = &'a (dyn Fn(u64, u64) + Sync);
+
+/// One synthesis problem. See the module docs.
+#[derive(Clone)]
+pub struct Synthesis<'a> {
+    pub(crate) source: &'a Image,
+    pub(crate) size: Option<(usize, usize)>,
+    pub(crate) source_guide: Option<&'a Image>,
+    pub(crate) target_guide: Option<&'a Image>,
+    pub(crate) guide_weight: f32,
+    pub(crate) source_mask: Option<&'a Mask>,
+    pub(crate) fill: Option<(&'a Image, &'a Mask)>,
+    pub(crate) metric: Option<PatchMetric>,
+    pub(crate) seed: u64,
+    pub(crate) progress: Option<Progress<'a>>,
+}
+
+impl<'a> Synthesis<'a> {
+    /// Synthesize from `source` (the exemplar; any number of channels).
+    pub fn new(source: &'a Image) -> Self {
+        Synthesis {
+            source,
+            size: None,
+            source_guide: None,
+            target_guide: None,
+            guide_weight: 1.0,
+            source_mask: None,
+            fill: None,
+            metric: None,
+            seed: 0,
+            progress: None,
+        }
+    }
+    /// Output size (default: the target guide's, the filled image's, or the source's).
+    pub fn size(mut self, width: usize, height: usize) -> Self {
+        self.size = Some((width, height));
+        self
+    }
+    /// Guided synthesis (image analogies): the output at a pixel should look
+    /// like the source where `source_guide` resembles `target_guide` there.
+    /// `weight` scales the guide term against the appearance term.
+    pub fn guides(mut self, source_guide: &'a Image, target_guide: &'a Image, weight: f32) -> Self {
+        self.source_guide = Some(source_guide);
+        self.target_guide = Some(target_guide);
+        self.guide_weight = weight;
+        self
+    }
+    /// Source pixels patches may use (others are never copied).
+    pub fn source_mask(mut self, allowed: &'a Mask) -> Self {
+        self.source_mask = Some(allowed);
+        self
+    }
+    /// Fill (inpaint) the pixels of `hole` in `image`, keeping the rest.
+    pub fn fill(mut self, image: &'a Image, hole: &'a Mask) -> Self {
+        self.fill = Some((image, hole));
+        self
+    }
+    /// Appearance metric over the source's channels (default: mean SSD).
+    pub fn metric(mut self, metric: PatchMetric) -> Self {
+        self.metric = Some(metric);
+        self
+    }
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+    pub fn progress(mut self, progress: Progress<'a>) -> Self {
+        self.progress = Some(progress);
+        self
+    }
+
+    /// The output size after checking every input against the others.
+    pub(crate) fn validate(&self, patch: usize) -> Result<(usize, usize)> {
+        let src = self.source;
+        if src.width() < patch || src.height() < patch {
+            return Err(Error::invalid(format!(
+                "the exemplar ({}x{}) is smaller than one {patch}x{patch} patch",
+                src.width(),
+                src.height()
+            )));
+        }
+        let size = self
+            .size
+            .or(self.target_guide.map(Image::size))
+            .or(self.fill.map(|(i, _)| i.size()))
+            .unwrap_or(src.size());
+        let (w, h) = size;
+        if w == 0 || h == 0 {
+            return Err(Error::invalid(format!("output size {w}x{h} is empty")));
+        }
+        if w > crate::image::MAX_SIDE || h > crate::image::MAX_SIDE {
+            return Err(Error::invalid(format!("output size {w}x{h} exceeds {} pixels per side", crate::image::MAX_SIDE)));
+        }
+        if let (Some(sg), Some(tg)) = (self.source_guide, self.target_guide) {
+            if sg.size() != src.size() {
+                return Err(Error::invalid(format!(
+                    "source guide is {}x{} but the exemplar is {}x{}",
+                    sg.width(),
+                    sg.height(),
+                    src.width(),
+                    src.height()
+                )));
+            }
+            if tg.size() != size {
+                return Err(Error::invalid(format!("target guide is {}x{} but the output is {w}x{h}", tg.width(), tg.height())));
+            }
+            if sg.channels() != tg.channels() {
+                return Err(Error::invalid(format!(
+                    "source guide has {} channels but target guide has {}",
+                    sg.channels(),
+                    tg.channels()
+                )));
+            }
+        }
+        if let Some(m) = self.source_mask {
+            if m.size() != src.size() {
+                return Err(Error::invalid("source mask and exemplar sizes differ"));
+            }
+        }
+        if let Some((img, hole)) = self.fill {
+            if img.size() != size || hole.size() != size {
+                return Err(Error::invalid("the image to fill, its hole mask and the output size differ"));
+            }
+            if img.channels() != src.channels() {
+                return Err(Error::invalid("the image to fill and the exemplar have different channel counts"));
+            }
+        }
+        if let Some(m) = &self.metric {
+            if m.channels() != src.channels() {
+                return Err(Error::invalid(format!("metric reads {} channels, the exemplar has {}", m.channels(), src.channels())));
+            }
+        }
+        let guide_c = self.target_guide.map_or(0, Image::channels);
+        check_memory("the output", w, h, src.channels() + guide_c)?;
+        Ok(size)
+    }
+
+    /// The appearance metric (style channels) followed by the guide metric.
+    pub(crate) fn full_metric(&self) -> PatchMetric {
+        let style = self.metric.clone().unwrap_or_else(|| PatchMetric::mean_ssd(self.source.channels()));
+        match self.source_guide {
+            Some(g) => style.then(&PatchMetric::mean_ssd(g.channels()).scaled(self.guide_weight)),
+            None => style,
+        }
+    }
+}
+
+/// Bytes of available memory, when the system says (Linux `MemAvailable`).
+pub fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Fail with [`Error::TooLarge`] when synthesizing a `w` x `h` image of
+/// `channels` channels would need more memory than is available. The
+/// estimate counts the working copies the engine keeps: about eight f32
+/// images of the output, two nearest-neighbour fields, plus pyramids.
+pub fn check_memory(what: &str, w: usize, h: usize, channels: usize) -> Result<()> {
+    let px = (w as u128) * (h as u128);
+    let need = px * (8 * 4 * channels as u128 + 2 * 12) * 4 / 3;
+    if let Some(avail) = available_memory() {
+        if need > avail as u128 {
+            return Err(Error::TooLarge {
+                what: format!("{what} at {w}x{h} with {channels} channels"),
+                need_mib: (need >> 20) as u64,
+                available_mib: avail >> 20,
+            });
+        }
+    }
+    Ok(())
+}
