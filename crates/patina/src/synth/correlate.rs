@@ -225,6 +225,13 @@ impl SpectralSource {
         }
     }
 
+    /// Like [`Self::add_term`], for a query started on another source of
+    /// the same size (e.g. a guide image beside the exemplar).
+    pub fn add_term_into(&self, q: &mut Query, template: &[f32], mask: &[f32], scale: f32) {
+        assert_eq!(q.acc.len(), self.plans.spectrum_len(), "query and source transform sizes differ");
+        self.add_term(q, template, mask, scale);
+    }
+
     /// Finish: the summed cost of every valid placement, row-major over
     /// (width - kw + 1) x (height - kh + 1), clamped at 0.
     pub fn finish(&self, mut q: Query) -> Vec<f32> {

@@ -115,6 +115,11 @@ impl PatchMetric {
         PatchMetric::from_groups(self.channels, groups)
     }
 
+    /// Per-channel weights when every group is weighted SSD.
+    pub fn ssd_weights(&self) -> Option<Vec<f32>> {
+        self.ssd_row.as_ref().map(|row| row[..self.channels].to_vec())
+    }
+
     /// Number of channels the metric reads.
     pub fn channels(&self) -> usize {
         self.channels
@@ -166,15 +171,17 @@ impl PatchMetric {
     }
 }
 
-/// sum_i w_i (a_i - b_i)^2, in eight lanes so the compiler vectorises it.
-/// The summation order is fixed, so results do not depend on threads.
+/// sum_i w_i (a_i - b_i)^2, in four lanes (one SSE register) so the
+/// compiler vectorises it; rows whose length is a multiple of 4 (see
+/// [`pad_for_search`]) have no scalar tail. The summation order is fixed,
+/// so results do not depend on threads.
 #[inline]
 pub fn weighted_ssd(a: &[f32], b: &[f32], w: &[f32]) -> f32 {
-    let mut lanes = [0f32; 8];
-    let (ca, cb, cw) = (a.chunks_exact(8), b.chunks_exact(8), w.chunks_exact(8));
+    let mut lanes = [0f32; 4];
+    let (ca, cb, cw) = (a.chunks_exact(4), b.chunks_exact(4), w.chunks_exact(4));
     let (ra, rb, rw) = (ca.remainder(), cb.remainder(), cw.remainder());
     for ((x, y), z) in ca.zip(cb).zip(cw) {
-        for i in 0..8 {
+        for i in 0..4 {
             let d = x[i] - y[i];
             lanes[i] += z[i] * d * d;
         }
@@ -185,6 +192,23 @@ pub fn weighted_ssd(a: &[f32], b: &[f32], w: &[f32]) -> f32 {
         tail += z * d * d;
     }
     lanes.iter().sum::<f32>() + tail
+}
+
+/// Channels to add so a pixel is a whole number of SIMD lanes.
+pub fn search_padding(channels: usize) -> usize {
+    (4 - channels % 4) % 4
+}
+
+/// `img` with [`search_padding`] zero channels appended, and `metric` with
+/// zero-weight SSD over them: the same costs, computed faster.
+pub fn pad_for_search(img: &Image, metric: &PatchMetric) -> (Image, PatchMetric) {
+    let pad = search_padding(img.channels());
+    if pad == 0 {
+        return (img.clone(), metric.clone());
+    }
+    let zeros = Image::new(img.width(), img.height(), pad);
+    let padded = Image::concat_channels(&[img, &zeros]).expect("same size");
+    (padded, metric.then(&PatchMetric::ssd(vec![0.0; pad])))
 }
 
 #[cfg(test)]

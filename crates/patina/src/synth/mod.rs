@@ -5,6 +5,8 @@
 //! - [`vote`]: averaging overlapping patches into an image.
 //! - [`problem`]: the [`Synthesis`] builder describing one problem.
 //! - [`optimize`]: texture optimization (search + vote over a pyramid).
+//! - [`correlate`] and [`quilt`]: image quilting with FFT candidate search
+//!   and minimum-error boundary cuts.
 
 pub mod correlate;
 pub mod distance;
@@ -12,11 +14,13 @@ pub mod nnf;
 pub mod optimize;
 pub mod patchmatch;
 pub mod problem;
+pub mod quilt;
 pub mod vote;
 
 pub use distance::{GroupDistance, PatchMetric, TexelDistance};
 pub use nnf::{Match, Nnf, SourceDomain};
-pub use optimize::{OptimizeParams, Synthesized};
+pub use optimize::{Init, OptimizeParams, Synthesized};
 pub use vote::VoteWeights;
 pub use patchmatch::PatchMatch;
 pub use problem::{Progress, Synthesis};
+pub use quilt::{Placement, QuiltParams, QuiltPlan, Quilted};

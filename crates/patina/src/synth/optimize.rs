@@ -4,10 +4,11 @@
 //! cost, plus the uniformity penalty of Kaspar et al. 2015) with voting; the
 //! field found at one level seeds the next, twice as fine.
 
-use super::distance::PatchMetric;
-use super::nnf::{block_nnf, random_nnf, upsample_nnf, Nnf, SourceDomain};
+use super::distance::{pad_for_search, search_padding, PatchMetric};
+use super::nnf::{block_nnf, random_nnf, upsample_nnf, Match, Nnf, SourceDomain};
 use super::patchmatch::PatchMatch;
 use super::problem::Synthesis;
+use super::quilt::QuiltParams;
 use super::vote::{vote, VoteWeights};
 use crate::error::{Error, Result};
 use crate::image::resample::pyr_down;
@@ -33,14 +34,35 @@ pub struct OptimizeParams {
     pub uniformity: f32,
     /// How votes are combined (EbSynth: mean).
     pub vote: VoteWeights,
-    /// Side of the coherent random blocks that initialise the coarsest
-    /// level, in coarsest-level pixels (0 = pixel-random, as EbSynth).
-    pub init_block: usize,
+    /// How the coarsest level starts.
+    pub init: Init,
+    /// EbSynth's stop threshold: after a vote, only pixels whose patch holds
+    /// a value that moved by at least this much are searched again (in
+    /// value units; EbSynth's 5 of 255). 0 searches every pixel every time.
+    pub stop_threshold: f32,
 }
+
+/// Initial nearest-neighbour field of the coarsest level.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Init {
+    /// Every pixel a random source patch (EbSynth). Votes to a grey average,
+    /// from which optimization often settles on smooth, structureless minima.
+    Random,
+    /// Coherent random blocks of [`INIT_BLOCK`] pixels (Kwatra et al.).
+    Blocks,
+    /// Image quilting (texture transfer when guided) at the coarsest level:
+    /// the optimization starts from quilting's intact structure and only
+    /// refines it. Falls back to `Blocks` with masks, which quilting lacks.
+    Quilt,
+}
+
+/// Block side, in coarsest-level pixels, of [`Init::Blocks`].
+pub const INIT_BLOCK: usize = 8;
 
 impl Default for OptimizeParams {
     fn default() -> Self {
-        OptimizeParams { patch: 5, levels: None, search_vote_iters: 6, patchmatch_iters: 4, uniformity: 3500.0 / 65025.0, vote: VoteWeights::Robust, init_block: 8 }
+        OptimizeParams { patch: 5, levels: None, search_vote_iters: 6, patchmatch_iters: 4, uniformity: 3500.0 / 65025.0, vote: VoteWeights::Mean, init: Init::Quilt, stop_threshold: 5.0 / 255.0 }
     }
 }
 
@@ -88,7 +110,41 @@ fn pyramid<T>(first: T, levels: usize, down: impl Fn(&T) -> T) -> Vec<T> {
     out
 }
 
+/// Pixels where some channel differs by at least `threshold`.
+fn changed(a: &Image, b: &Image, threshold: f32) -> Mask {
+    let n = a.channels();
+    let (da, db) = (a.data(), b.data());
+    Mask::from_fn(a.width(), a.height(), |x, y| {
+        let i = (y * a.width() + x) * n;
+        (0..n).any(|c| (da[i + c] - db[i + c]).abs() >= threshold)
+    })
+}
+
 impl Synthesis<'_> {
+    /// A field copying an image quilt of `style` (guided by the guides, if
+    /// any) at `size`; positions outside `domain` are clamped into it.
+    fn quilt_field(&self, style: &Image, sg: Option<&Image>, tg: Option<&Image>, size: (usize, usize), domain: &SourceDomain, seed: u64) -> Result<Nnf> {
+        let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed);
+        if let (Some(s), Some(t)) = (sg, tg) {
+            problem = problem.guides(s, t, self.guide_weight);
+        }
+        if let Some(m) = &self.metric {
+            problem = problem.metric(m.clone());
+        }
+        let block = (style.width().min(style.height()) / 3).max(2 * domain.radius() + 3);
+        let params = QuiltParams { block: Some((block, block)), ..QuiltParams::default() };
+        let plan = problem.quilt(&params)?.plan;
+        let matches = plan
+            .source_positions()
+            .into_iter()
+            .map(|(x, y)| {
+                let (cx, cy) = domain.clamp(x as i64, y as i64);
+                Match { x: cx as u32, y: cy as u32, cost: f32::INFINITY }
+            })
+            .collect();
+        Ok(Nnf::from_matches(size.0, size.1, matches))
+    }
+
     /// Synthesize by texture optimization.
     pub fn optimize(&self, params: &OptimizeParams) -> Result<Synthesized> {
         if params.patch < 3 || params.patch % 2 == 0 || params.patch > super::distance::MAX_PATCH {
@@ -130,12 +186,21 @@ impl Synthesis<'_> {
                 Some(g) => Image::concat_channels(&[style, &g[level]])?,
                 None => style.clone(),
             };
+            let (source, search_metric) = pad_for_search(&source, &metric);
+            let pad = Image::new(tw, th, search_padding(metric.channels()).max(1));
             let domain = SourceDomain::new(source.width(), source.height(), r, allowed_pyr.as_ref().map(|p| &p[level]))?;
             let level_seed = rng::derive(self.seed, &[level as u64]);
             let mut field = match nnf.take() {
-                None if params.init_block > 1 => block_nnf(tw, th, &domain, params.init_block, level_seed),
-                None => random_nnf(tw, th, &domain, level_seed),
                 Some(coarse) => upsample_nnf(&coarse, tw, th, &domain, level_seed),
+                None => match params.init {
+                    Init::Random => random_nnf(tw, th, &domain, level_seed),
+                    Init::Quilt if self.source_mask.is_none() && self.fill.is_none() => {
+                        let sg = sguide_pyr.as_ref().map(|p| &p[level]);
+                        let tg = tguide_pyr.as_ref().map(|p| &p[level]);
+                        self.quilt_field(style, sg, tg, (tw, th), &domain, level_seed)?
+                    }
+                    _ => block_nnf(tw, th, &domain, INIT_BLOCK, level_seed),
+                },
             };
             let hole = hole_pyr.as_ref().map(|p| &p[level]);
             let search = hole.map(|m| m.dilate(r));
@@ -147,18 +212,31 @@ impl Synthesis<'_> {
             let pm = PatchMatch {
                 radius: r,
                 iterations: params.patchmatch_iters,
-                metric: &metric,
+                metric: &search_metric,
                 uniformity: params.uniformity,
                 max_search_radius: None,
                 exclude_self: None,
             };
+            let mut active: Option<Mask> = search.clone();
             for it in 0..params.search_vote_iters {
-                let full = match &tguide_pyr {
-                    Some(g) => Image::concat_channels(&[&target, &g[level]])?,
-                    None => target.clone(),
-                };
-                pm.improve(&full, &source, &domain, &mut field, search.as_ref(), rng::derive(level_seed, &[it as u64]));
+                let mut parts = vec![&target];
+                if let Some(g) = &tguide_pyr {
+                    parts.push(&g[level]);
+                }
+                if search_padding(metric.channels()) > 0 {
+                    parts.push(&pad);
+                }
+                let full = Image::concat_channels(&parts)?;
+                pm.improve(&full, &source, &domain, &mut field, active.as_ref(), rng::derive(level_seed, &[it as u64]));
+                let before = (params.stop_threshold > 0.0).then(|| target.clone());
                 vote(&field, style, r, &mut target, hole, params.vote);
+                if let Some(before) = before {
+                    let moved = changed(&before, &target, params.stop_threshold).dilate(r);
+                    active = Some(match &search {
+                        Some(s) => Mask::from_fn(tw, th, |x, y| s.get(x, y) && moved.get(x, y)),
+                        None => moved,
+                    });
+                }
                 done += (tw * th) as u64;
                 if let Some(p) = self.progress {
                     p(done, total);

@@ -19,7 +19,7 @@
 use super::distance::PatchMetric;
 use super::nnf::{Match, Nnf, SourceDomain};
 use crate::image::{Image, Mask};
-use crate::rng::{self, Rng};
+use crate::rng;
 use rayon::prelude::*;
 
 /// Rows per band of parallel work (fixed: results must not depend on threads).
@@ -179,8 +179,8 @@ impl Scan<'_> {
                 // Random search around the best match, radius halving each time.
                 let mut rad = self.radius_max as i64;
                 while rad >= 1 {
-                    let cx = best.x as i64 + g.gen_range(-rad..=rad);
-                    let cy = best.y as i64 + g.gen_range(-rad..=rad);
+                    let cx = best.x as i64 + rng::offset(&mut g, rad);
+                    let cy = best.y as i64 + rng::offset(&mut g, rad);
                     let (cx, cy) = self.domain.clamp(cx, cy);
                     self.try_candidate(x, y, cx, cy, &mut best, &mut best_total);
                     rad /= 2;
