@@ -1,1 +1,55 @@
-fn main(){}
+//! `patina`: the command-line tool. Argument parsing, file I/O, progress
+//! and manifests only; every algorithm lives in the `patina` library.
+
+mod demo;
+mod output;
+mod progress;
+mod synth;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// patina: make surfaces age. Example-based synthesis of textures and their
+/// weathering over time.
+#[derive(Parser)]
+#[command(name = "patina", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Synthesize a texture from an exemplar (enlargement or guided synthesis).
+    Synth(synth::Args),
+    /// Run patina on built-in procedural samples, writing into ./patina-demo/.
+    Demo(demo::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            use clap::error::ErrorKind as K;
+            if matches!(e.kind(), K::DisplayHelp | K::DisplayVersion | K::DisplayHelpOnMissingArgumentOrSubcommand) {
+                e.exit();
+            }
+            // One line: clap's first line, without its "error: " prefix.
+            let text = e.to_string();
+            let first = text.lines().next().unwrap_or("bad arguments").trim_start_matches("error: ");
+            eprintln!("patina: {first} (see 'patina --help')");
+            return ExitCode::from(2);
+        }
+    };
+    let result = match cli.command {
+        Command::Synth(a) => synth::run(a),
+        Command::Demo(a) => demo::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("patina: {e}");
+            ExitCode::from(if e.is_usage() { 2 } else { 1 })
+        }
+    }
+}

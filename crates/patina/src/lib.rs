@@ -12,6 +12,7 @@
 
 pub mod error;
 pub mod image;
+pub mod metrics;
 pub mod rng;
 pub mod samples;
 pub mod synth;

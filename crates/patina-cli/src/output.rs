@@ -1,0 +1,116 @@
+//! Output conventions: manifests beside outputs, never writing over an
+//! input, and size parsing shared by the subcommands.
+
+use patina::{Error, Result};
+use serde::Serialize;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What a run records beside its outputs (see DESIGN.md, "Outputs").
+#[derive(Serialize)]
+pub struct Manifest {
+    pub tool: Tool,
+    pub command: String,
+    pub inputs: Vec<PathBuf>,
+    pub params: Value,
+    pub seed: u64,
+    pub outputs: Vec<PathBuf>,
+    pub metrics: BTreeMap<String, Value>,
+    pub timings_ms: BTreeMap<String, f64>,
+}
+
+#[derive(Serialize)]
+pub struct Tool {
+    pub name: &'static str,
+    pub version: &'static str,
+}
+
+impl Manifest {
+    pub fn new(command: &str, seed: u64) -> Self {
+        Manifest {
+            tool: Tool { name: "patina", version: env!("CARGO_PKG_VERSION") },
+            command: command.to_string(),
+            inputs: Vec::new(),
+            params: Value::Null,
+            seed,
+            outputs: Vec::new(),
+            metrics: BTreeMap::new(),
+            timings_ms: BTreeMap::new(),
+        }
+    }
+
+    /// Write as pretty JSON, atomically.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        patina::image::io::write_atomic(path, |buf| {
+            serde_json::to_writer_pretty(&mut *buf, self).map_err(|e| Error::Internal(format!("manifest: {e}")))?;
+            buf.push(b'\n');
+            Ok(())
+        })
+    }
+}
+
+/// Stage timer feeding `timings_ms`.
+pub struct Stopwatch(Instant);
+
+impl Stopwatch {
+    pub fn start() -> Self {
+        Stopwatch(Instant::now())
+    }
+    /// Milliseconds since start (or the last lap), restarting the clock.
+    pub fn lap(&mut self) -> f64 {
+        let ms = self.0.elapsed().as_secs_f64() * 1000.0;
+        self.0 = Instant::now();
+        ms
+    }
+}
+
+/// The absolute form of `p`, resolving what exists (symlinks included).
+fn resolved(p: &Path) -> PathBuf {
+    if let Ok(c) = p.canonicalize() {
+        return c;
+    }
+    let parent = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    match (parent.canonicalize(), p.file_name()) {
+        (Ok(d), Some(name)) => d.join(name),
+        _ => p.to_path_buf(),
+    }
+}
+
+/// Refuse to write any of `outputs` over one of `inputs`, and check each
+/// output's folder exists.
+pub fn check_outputs(outputs: &[&Path], inputs: &[&Path]) -> Result<()> {
+    for out in outputs {
+        let r = resolved(out);
+        if let Some(inp) = inputs.iter().find(|i| resolved(i) == r) {
+            return Err(Error::invalid(format!("output {} would overwrite input {}", out.display(), inp.display())));
+        }
+        if r.is_dir() {
+            return Err(Error::invalid(format!("output {} is a folder", out.display())));
+        }
+        let parent = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        if !parent.is_dir() {
+            return Err(Error::invalid(format!("output folder {} does not exist", parent.display())));
+        }
+    }
+    Ok(())
+}
+
+/// `path` with `.manifest.json` appended (OUT -> OUT.manifest.json).
+pub fn manifest_path(path: &Path) -> PathBuf {
+    let mut s = path.as_os_str().to_owned();
+    s.push(".manifest.json");
+    PathBuf::from(s)
+}
+
+/// Parse `WxH` (e.g. `512x384`); both sides >= 1.
+pub fn parse_size(s: &str) -> std::result::Result<(usize, usize), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}' is not WIDTHxHEIGHT (e.g. 512x512)"))?;
+    let side = |v: &str| v.trim().parse::<usize>().map_err(|_| format!("'{s}' is not WIDTHxHEIGHT (e.g. 512x512)"));
+    let (w, h) = (side(w)?, side(h)?);
+    if w == 0 || h == 0 {
+        return Err(format!("size {w}x{h} is empty: both sides must be at least 1"));
+    }
+    Ok((w, h))
+}

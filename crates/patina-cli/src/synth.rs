@@ -1,0 +1,234 @@
+//! `patina synth`: texture synthesis from an exemplar.
+
+use crate::output::{check_outputs, manifest_path, parse_size, Manifest, Stopwatch};
+use crate::progress::Bar;
+use clap::ValueEnum;
+use patina::image::io::{self, BitDepth};
+use patina::synth::{Init, OptimizeParams, QuiltParams, Synthesis, VoteWeights};
+use patina::{Error, Image, Result};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// Texture optimization: PatchMatch search + voting over a pyramid (EbSynth-like).
+    Optimize,
+    /// Image quilting: blocks joined along minimum-error cuts (Efros-Freeman).
+    Quilt,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum InitArg {
+    /// Each pixel a random exemplar patch (EbSynth).
+    Random,
+    /// Coherent random blocks (Kwatra et al.).
+    Blocks,
+    /// A coarse image quilt: keeps structure such as brick courses.
+    Quilt,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum VoteArg {
+    /// Plain mean of the overlapping patches (EbSynth).
+    Mean,
+    /// Kwatra's robust weights: well-matching patches dominate.
+    Robust,
+}
+
+/// Parse `N` (square) or `WxH`.
+fn parse_block(s: &str) -> std::result::Result<(usize, usize), String> {
+    match s.parse::<usize>() {
+        Ok(0) => Err("block size must be at least 1".into()),
+        Ok(n) => Ok((n, n)),
+        Err(_) => parse_size(s),
+    }
+}
+
+fn parse_bits(s: &str) -> std::result::Result<u8, String> {
+    match s {
+        "8" => Ok(8),
+        "16" => Ok(16),
+        _ => Err(format!("'{s}' is not 8 or 16")),
+    }
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Exemplar image: PNG or JPEG (8/16-bit, gray/RGB, with or without alpha) or OpenEXR.
+    pub exemplar: PathBuf,
+    /// Output image, .png or .exr. OUT.manifest.json is written beside it.
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Output size WIDTHxHEIGHT [default: the target guide's size, else twice the exemplar's].
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
+    /// Synthesis method.
+    #[arg(long, value_enum, default_value_t = Method::Optimize)]
+    pub method: Method,
+    /// Random seed: the same inputs and seed give the same bytes.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Patch side in pixels, odd (optimize).
+    #[arg(long, default_value_t = 5)]
+    pub patch: usize,
+    /// Search + vote iterations per pyramid level (optimize).
+    #[arg(long, default_value_t = 6)]
+    pub iters: usize,
+    /// PatchMatch sweeps per search (optimize).
+    #[arg(long, default_value_t = 4)]
+    pub pm_iters: usize,
+    /// Pyramid levels (optimize) [default: as many as keep the coarsest level 4 patches wide].
+    #[arg(long)]
+    pub levels: Option<usize>,
+    /// Uniformity weight: penalises reusing the same exemplar patches (optimize; 0 = off; EbSynth's 3500 in 8-bit units).
+    #[arg(long, default_value_t = 3500.0 / 65025.0)]
+    pub uniformity: f32,
+    /// How overlapping patches are combined (optimize).
+    #[arg(long, value_enum, default_value_t = VoteArg::Mean)]
+    pub vote: VoteArg,
+    /// How the coarsest level starts (optimize).
+    #[arg(long, value_enum, default_value_t = InitArg::Quilt)]
+    pub init: InitArg,
+    /// Stop threshold: re-search only pixels whose patch changed by at least this much after a vote (optimize; 0 = always; EbSynth's 5 of 255).
+    #[arg(long, default_value_t = 5.0 / 255.0)]
+    pub stop_threshold: f32,
+    /// Block size, N or WxH (quilt) [default: a quarter of the exemplar's smaller side, within 8..64].
+    #[arg(long, value_parser = parse_block)]
+    pub block: Option<(usize, usize)>,
+    /// Overlap, N or WxH (quilt) [default: block / 6].
+    #[arg(long, value_parser = parse_block)]
+    pub overlap: Option<(usize, usize)>,
+    /// Candidate blocks are those within (1 + tolerance) x the best overlap error (quilt).
+    #[arg(long, default_value_t = 0.1)]
+    pub tolerance: f32,
+    /// Never choose among fewer candidate blocks than this (quilt; prevents verbatim copying).
+    #[arg(long, default_value_t = 3)]
+    pub min_candidates: usize,
+    /// Blend blocks linearly across the overlap instead of cutting along the minimum-error seam (quilt).
+    #[arg(long)]
+    pub no_cut: bool,
+    /// Texture-transfer passes with guides, each with blocks a third smaller (quilt).
+    #[arg(long, default_value_t = 3)]
+    pub transfer_passes: usize,
+    /// Guide image for the exemplar (same size as the exemplar); needs --target-guide.
+    #[arg(long, requires = "target_guide")]
+    pub source_guide: Option<PathBuf>,
+    /// Guide image for the output (its size is the output size); needs --source-guide.
+    #[arg(long, requires = "source_guide")]
+    pub target_guide: Option<PathBuf>,
+    /// Weight of the guide term against appearance.
+    #[arg(long, default_value_t = 1.0)]
+    pub guide_weight: f32,
+    /// Bits per channel of a PNG output (8 or 16).
+    #[arg(long, default_value_t = 8, value_parser = parse_bits)]
+    pub bits: u8,
+}
+
+impl Args {
+    fn optimize_params(&self) -> OptimizeParams {
+        OptimizeParams {
+            patch: self.patch,
+            levels: self.levels,
+            search_vote_iters: self.iters,
+            patchmatch_iters: self.pm_iters,
+            uniformity: self.uniformity,
+            vote: match self.vote {
+                VoteArg::Mean => VoteWeights::Mean,
+                VoteArg::Robust => VoteWeights::Robust,
+            },
+            init: match self.init {
+                InitArg::Random => Init::Random,
+                InitArg::Blocks => Init::Blocks,
+                InitArg::Quilt => Init::Quilt,
+            },
+            stop_threshold: self.stop_threshold,
+        }
+    }
+
+    fn quilt_params(&self) -> QuiltParams {
+        QuiltParams {
+            block: self.block,
+            overlap: self.overlap,
+            tolerance: self.tolerance,
+            min_candidates: self.min_candidates,
+            boundary_cut: !self.no_cut,
+            transfer_passes: self.transfer_passes,
+        }
+    }
+}
+
+/// Output kind from the extension; PNG needs 1 to 4 channels.
+fn check_format(out: &Path, channels: usize) -> Result<()> {
+    match out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("exr") => Ok(()),
+        Some("png") if channels <= 4 => Ok(()),
+        Some("png") => Err(Error::invalid(format!("{}: PNG holds at most 4 channels, the exemplar has {channels}; use .exr", out.display()))),
+        _ => Err(Error::invalid(format!("{}: output must end in .png or .exr", out.display()))),
+    }
+}
+
+pub fn save(img: &Image, out: &Path, bits: u8) -> Result<()> {
+    if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        io::save_exr(img, out)
+    } else {
+        io::save_png(img, out, if bits == 16 { BitDepth::Sixteen } else { BitDepth::Eight })
+    }
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let mut manifest = Manifest::new("synth", args.seed);
+    let manifest_file = manifest_path(&args.out);
+    let mut inputs: Vec<&Path> = vec![&args.exemplar];
+    inputs.extend(args.source_guide.as_deref());
+    inputs.extend(args.target_guide.as_deref());
+    check_outputs(&[&args.out, &manifest_file], &inputs)?;
+
+    let exemplar = io::load(&args.exemplar)?;
+    check_format(&args.out, exemplar.channels())?;
+    let guides = match (&args.source_guide, &args.target_guide) {
+        (Some(s), Some(t)) => Some((io::load(s)?, io::load(t)?)),
+        _ => None,
+    };
+    let size = args.size.or(guides.as_ref().map(|(_, t)| t.size())).unwrap_or((2 * exemplar.width(), 2 * exemplar.height()));
+    manifest.timings_ms.insert("load".into(), clock.lap());
+
+    let bar = Bar::new("synth");
+    let report = |d: u64, t: u64| bar.update(d, t);
+    let mut problem = Synthesis::new(&exemplar).size(size.0, size.1).seed(args.seed).progress(&report);
+    if let Some((s, t)) = &guides {
+        problem = problem.guides(s, t, args.guide_weight);
+    }
+    let params = match args.method {
+        Method::Optimize => {
+            let mut p = args.optimize_params();
+            let out = problem.optimize(&p)?;
+            p.levels = Some(out.levels);
+            let texels = (p.patch * p.patch) as f32;
+            manifest.metrics.insert("mean_patch_rms".into(), json!((out.nnf.mean_cost(None) / texels).sqrt()));
+            bar.finish();
+            manifest.timings_ms.insert("synthesize".into(), clock.lap());
+            save(&out.image, &args.out, args.bits)?;
+            json!({ "method": "optimize", "optimize": p })
+        }
+        Method::Quilt => {
+            let mut p = args.quilt_params();
+            let out = problem.quilt(&p)?;
+            (p.block, p.overlap) = (Some(out.plan.block), Some(out.plan.overlap));
+            manifest.metrics.insert("blocks".into(), json!(out.plan.placements.len()));
+            bar.finish();
+            manifest.timings_ms.insert("synthesize".into(), clock.lap());
+            save(&out.image, &args.out, args.bits)?;
+            json!({ "method": "quilt", "quilt": p })
+        }
+    };
+    manifest.timings_ms.insert("save".into(), clock.lap());
+    let mut params = params;
+    params["size"] = json!([size.0, size.1]);
+    params["guide_weight"] = json!(args.guide_weight);
+    params["bits"] = json!(args.bits);
+    manifest.params = params;
+    manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
+    manifest.outputs = vec![args.out.clone()];
+    manifest.write(&manifest_file)
+}

@@ -1,0 +1,131 @@
+//! Quality measures shared by the tests, the benchmarks and the CLI.
+//!
+//! Distances are RMS differences per value between two patches (square root
+//! of the mean over texels and channels of the squared difference), so they
+//! read in image units whatever the patch size or channel count. Nearest
+//! patches are found with the engine's PatchMatch (many sweeps; approximate
+//! but very close to exhaustive search at these settings).
+
+use crate::error::{Error, Result};
+use crate::image::{Image, Mask};
+use crate::synth::nnf::{random_nnf, SourceDomain};
+use crate::synth::{Nnf, PatchMatch, PatchMetric};
+
+/// PatchMatch sweeps used by the metrics.
+const SWEEPS: usize = 8;
+
+/// Nearest-patch distances from every interior patch of `from` to `to`.
+fn nearest(from: &Image, to: &Image, patch: usize, exclude_self: Option<usize>, seed: u64) -> Result<(Nnf, Mask)> {
+    if patch % 2 == 0 || patch < 3 {
+        return Err(Error::invalid(format!("metric patch size must be odd and >= 3, got {patch}")));
+    }
+    if from.channels() != to.channels() {
+        return Err(Error::invalid(format!(
+            "cannot compare images with {} and {} channels",
+            from.channels(),
+            to.channels()
+        )));
+    }
+    let r = patch / 2;
+    let domain = SourceDomain::new(to.width(), to.height(), r, None)?;
+    let interior = SourceDomain::new(from.width(), from.height(), r, None)?;
+    let inside = Mask::from_fn(from.width(), from.height(), |x, y| interior.contains(x as i64, y as i64));
+    let metric = PatchMetric::mean_ssd(from.channels());
+    let mut nnf = random_nnf(from.width(), from.height(), &domain, seed);
+    let pm = PatchMatch { radius: r, iterations: SWEEPS, metric: &metric, uniformity: 0.0, max_search_radius: None, exclude_self };
+    pm.improve(from, to, &domain, &mut nnf, Some(&inside), seed ^ 0x5eed);
+    Ok((nnf, inside))
+}
+
+fn rms_map(nnf: &Nnf, inside: &Mask, patch: usize) -> Image {
+    let texels = (patch * patch) as f32;
+    Image::from_fn(nnf.width(), nnf.height(), 1, |x, y, p| {
+        p[0] = if inside.get(x, y) { (nnf.get(x, y).cost / texels).max(0.0).sqrt() } else { f32::NAN };
+    })
+}
+
+fn mean_where(map: &Image, mask: impl Fn(usize, usize) -> bool) -> f32 {
+    let (mut sum, mut n) = (0f64, 0usize);
+    for y in 0..map.height() {
+        for x in 0..map.width() {
+            let v = map.at(x, y, 0);
+            if v.is_finite() && mask(x, y) {
+                sum += v as f64;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        f32::NAN
+    } else {
+        (sum / n as f64) as f32
+    }
+}
+
+/// Bidirectional similarity (Simakov, Caspi, Shechtman, Irani 2008).
+#[derive(Clone, Debug)]
+pub struct Bidirectional {
+    /// Mean distance from each output patch to its nearest exemplar patch:
+    /// low when the output holds nothing the exemplar lacks.
+    pub coherence: f32,
+    /// Mean distance from each exemplar patch to its nearest output patch:
+    /// low when everything in the exemplar appears in the output.
+    pub completeness: f32,
+    /// Per output pixel, its patch's coherence distance (NaN at borders).
+    pub coherence_map: Image,
+    /// Per exemplar pixel, its patch's completeness distance (NaN at borders).
+    pub completeness_map: Image,
+}
+
+/// Coherence and completeness of `output` with respect to `exemplar`.
+pub fn bidirectional(output: &Image, exemplar: &Image, patch: usize, seed: u64) -> Result<Bidirectional> {
+    let (n1, m1) = nearest(output, exemplar, patch, None, seed)?;
+    let (n2, m2) = nearest(exemplar, output, patch, None, seed ^ 1)?;
+    let coherence_map = rms_map(&n1, &m1, patch);
+    let completeness_map = rms_map(&n2, &m2, patch);
+    Ok(Bidirectional {
+        coherence: mean_where(&coherence_map, |_, _| true),
+        completeness: mean_where(&completeness_map, |_, _| true),
+        coherence_map,
+        completeness_map,
+    })
+}
+
+/// The exemplar's own self-similarity: mean distance from each patch to the
+/// nearest patch that does not overlap it. A synthesis whose coherence is
+/// near this copies no worse than the exemplar resembles itself.
+pub fn self_similarity(exemplar: &Image, patch: usize, seed: u64) -> Result<f32> {
+    let (nnf, inside) = nearest(exemplar, exemplar, patch, Some(patch - 1), seed)?;
+    Ok(mean_where(&rms_map(&nnf, &inside, patch), |_, _| true))
+}
+
+/// Seam visibility: the mean coherence distance over the pixels of `seams`
+/// (e.g. [`crate::synth::QuiltPlan::overlap_mask`]). Where blocks meet
+/// invisibly the patches there exist in the exemplar (distance near 0 for
+/// a good cut, like block interiors); a visible seam or blended ghosting
+/// makes patches the exemplar never had.
+pub fn seam_visibility(output: &Image, exemplar: &Image, seams: &Mask, patch: usize, seed: u64) -> Result<f32> {
+    if seams.size() != output.size() {
+        return Err(Error::invalid("seam mask and output sizes differ"));
+    }
+    let (nnf, inside) = nearest(output, exemplar, patch, None, seed)?;
+    Ok(mean_where(&rms_map(&nnf, &inside, patch), |x, y| seams.get(x, y)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_crop_is_coherent_and_a_foreign_image_is_not() {
+        let ex = crate::samples::cobbles(64, 64, 3);
+        let crop = ex.crop(8, 8, 40, 40).unwrap();
+        let b = bidirectional(&crop, &ex, 5, 1).unwrap();
+        assert!(b.coherence < 1e-3, "a crop's patches all exist in the exemplar: {}", b.coherence);
+        assert!(b.completeness > 0.02, "the crop misses most of the exemplar: {}", b.completeness);
+        let other = crate::samples::bricks(40, 40, 3);
+        assert!(bidirectional(&other, &ex, 5, 1).unwrap().coherence > 0.05);
+        let own = self_similarity(&ex, 5, 1).unwrap();
+        assert!(own > 0.0 && own < 0.2, "{own}");
+    }
+}
