@@ -34,10 +34,11 @@ fn main() -> ExitCode {
             if matches!(e.kind(), K::DisplayHelp | K::DisplayVersion | K::DisplayHelpOnMissingArgumentOrSubcommand) {
                 e.exit();
             }
-            // One line: clap's first line, without its "error: " prefix.
+            // One line: clap's message up to its usage block, joined.
             let text = e.to_string();
-            let first = text.lines().next().unwrap_or("bad arguments").trim_start_matches("error: ");
-            eprintln!("patina: {first} (see 'patina --help')");
+            let message: Vec<&str> = text.lines().take_while(|l| !l.trim().is_empty()).map(str::trim).collect();
+            let message = message.join(" ");
+            eprintln!("patina: {} (see 'patina --help')", message.trim_start_matches("error: "));
             return ExitCode::from(2);
         }
     };
