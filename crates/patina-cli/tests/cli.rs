@@ -1,0 +1,149 @@
+//! The `patina` binary: outputs, manifests, determinism across thread
+//! counts and bad-input behaviour (one line, exit 2, nothing left behind).
+
+use patina::image::io::{load, save_png, BitDepth};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn patina(args: &[&str], threads: Option<usize>) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_patina"));
+    cmd.args(args);
+    if let Some(t) = threads {
+        cmd.env("RAYON_NUM_THREADS", t.to_string());
+    }
+    cmd.output().expect("runs")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("patina-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn exemplar(dir: &Path) -> PathBuf {
+    let p = dir.join("ex.png");
+    save_png(&patina::samples::cobbles(64, 64, 3), &p, BitDepth::Eight).unwrap();
+    p
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Files in `dir`, sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn synth_writes_the_image_and_a_complete_manifest() {
+    let dir = scratch("ok");
+    let ex = exemplar(&dir);
+    let out = dir.join("out.png");
+    let r = patina(&["synth", s(&ex), "-o", s(&out), "--size", "100x80", "--seed", "4"], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(load(&out).unwrap().size(), (100, 80));
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("out.png.manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["command"], "synth");
+    assert_eq!(m["seed"], 4);
+    assert_eq!(m["params"]["optimize"]["patch"], 5);
+    assert!(m["params"]["optimize"]["levels"].as_u64().unwrap() >= 1, "resolved defaults are recorded");
+    assert!(m["timings_ms"]["synthesize"].as_f64().unwrap() > 0.0);
+    assert_eq!(listing(&dir), vec!["ex.png", "out.png", "out.png.manifest.json"], "no temporary files left");
+}
+
+#[test]
+fn output_bytes_do_not_depend_on_thread_count() {
+    let dir = scratch("threads");
+    let ex = exemplar(&dir);
+    for method in ["optimize", "quilt"] {
+        let outs: Vec<Vec<u8>> = [1, 2]
+            .iter()
+            .map(|&t| {
+                let out = dir.join(format!("{method}-{t}.png"));
+                let r = patina(&["synth", s(&ex), "-o", s(&out), "--size", "96x96", "--method", method, "--seed", "7"], Some(t));
+                assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+                std::fs::read(out).unwrap()
+            })
+            .collect();
+        assert_eq!(outs[0], outs[1], "{method}: 1 and 2 threads differ");
+    }
+}
+
+/// Run a failing command: exit code 2, one line on stderr naming `needle`,
+/// and the folder unchanged.
+fn fails_cleanly(dir: &Path, args: &[&str], needle: &str) {
+    let before = listing(dir);
+    let r = patina(args, None);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: not one line: {err}");
+    assert!(err.to_lowercase().contains(&needle.to_lowercase()), "{args:?}: '{err}' does not mention '{needle}'");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(listing(dir), before, "{args:?} left files behind");
+}
+
+#[test]
+fn bad_input_is_one_line_exit_2_and_leaves_nothing() {
+    let dir = scratch("bad");
+    let ex = exemplar(&dir);
+    let out = dir.join("out.png");
+    let (ex_s, out_s) = (s(&ex), s(&out));
+    let corrupt = dir.join("corrupt.png");
+    std::fs::write(&corrupt, b"\x89PNG\r\n\x1a\n garbage").unwrap();
+    let tiny = dir.join("tiny.png");
+    save_png(&patina::samples::cobbles(4, 4, 1), &tiny, BitDepth::Eight).unwrap();
+    let guide_ok = dir.join("g64.png");
+    save_png(&patina::samples::blotches(64, 64, 1), &guide_ok, BitDepth::Eight).unwrap();
+    let guide_bad = dir.join("g50.png");
+    save_png(&patina::samples::blotches(50, 64, 1), &guide_bad, BitDepth::Eight).unwrap();
+
+    fails_cleanly(&dir, &["synth", s(&dir.join("missing.png")), "-o", out_s], "missing.png");
+    fails_cleanly(&dir, &["synth", s(&corrupt), "-o", out_s], "corrupt.png");
+    fails_cleanly(&dir, &["synth", s(&tiny), "-o", out_s], "smaller than");
+    fails_cleanly(&dir, &["synth", ex_s, "-o", out_s, "--size", "0x64"], "empty");
+    fails_cleanly(&dir, &["synth", ex_s, "-o", out_s, "--size", "60000x60000"], "memory");
+    fails_cleanly(&dir, &["synth", ex_s, "-o", out_s, "--size", "99999x10"], "exceeds");
+    fails_cleanly(&dir, &["synth", ex_s, "-o", out_s, "--source-guide", s(&guide_bad), "--target-guide", s(&guide_ok)], "source guide");
+    fails_cleanly(&dir, &["synth", ex_s, "-o", out_s, "--source-guide", s(&guide_ok)], "target-guide");
+    fails_cleanly(&dir, &["synth", ex_s, "-o", out_s, "--patch", "4"], "patch");
+    fails_cleanly(&dir, &["synth", ex_s, "-o", s(&dir.join("out.jpg"))], ".png or .exr");
+    fails_cleanly(&dir, &["synth", ex_s, "-o", s(&dir.join("nofolder/out.png"))], "does not exist");
+    fails_cleanly(&dir, &["synth", ex_s, "-o", out_s, "--method", "magic"], "magic");
+    fails_cleanly(&dir, &["synth", ex_s, "-o", out_s, "--method", "quilt", "--block", "200"], "block");
+    // The output may never be an input: the exemplar stays byte-identical.
+    let original = std::fs::read(&ex).unwrap();
+    fails_cleanly(&dir, &["synth", ex_s, "-o", ex_s], "overwrite");
+    assert_eq!(std::fs::read(&ex).unwrap(), original);
+}
+
+#[test]
+fn guided_synth_takes_its_size_from_the_target_guide() {
+    let dir = scratch("guided");
+    let ex = exemplar(&dir);
+    let (sg, tg) = (dir.join("sg.png"), dir.join("tg.png"));
+    save_png(&patina::samples::blotches(64, 64, 1), &sg, BitDepth::Eight).unwrap();
+    save_png(&patina::samples::blotches(90, 70, 2), &tg, BitDepth::Eight).unwrap();
+    let out = dir.join("g.png");
+    let r = patina(&["synth", s(&ex), "-o", s(&out), "--source-guide", s(&sg), "--target-guide", s(&tg), "--bits", "16"], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(load(&out).unwrap().size(), (90, 70));
+}
+
+#[test]
+fn demo_makes_its_own_samples_and_measures_them() {
+    let dir = scratch("demo");
+    let out = dir.join("demo");
+    let r = patina(&["demo", "--out", s(&out)], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(listing(&out), vec!["exemplar.png", "manifest.json", "optimize.png", "quilt.png"]);
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    let own = m["metrics"]["exemplar_self_similarity"].as_f64().unwrap();
+    for method in ["optimize", "quilt"] {
+        let c = m["metrics"][format!("{method}_coherence")].as_f64().unwrap();
+        assert!(c > 0.0 && c < 1.5 * own, "{method} coherence {c} vs self-similarity {own}");
+    }
+}
