@@ -104,6 +104,9 @@ pub struct Args {
     /// Never choose among fewer candidate blocks than this (quilt; prevents verbatim copying).
     #[arg(long, default_value_t = 3)]
     pub min_candidates: usize,
+    /// Reuse penalty: a candidate block's cost grows by this factor per block already taken from around the same exemplar spot (quilt; 0 = off, as in the paper).
+    #[arg(long, default_value_t = 0.5)]
+    pub reuse: f32,
     /// Blend blocks linearly across the overlap instead of cutting along the minimum-error seam (quilt).
     #[arg(long)]
     pub no_cut: bool,
@@ -153,6 +156,7 @@ impl Args {
             min_candidates: self.min_candidates,
             boundary_cut: !self.no_cut,
             transfer_passes: self.transfer_passes,
+            reuse: self.reuse,
         }
     }
 }

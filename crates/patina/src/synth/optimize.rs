@@ -23,7 +23,8 @@ pub struct OptimizeParams {
     /// Patch side in pixels (odd). EbSynth: 5.
     pub patch: usize,
     /// Pyramid levels; `None` picks as many as keep the coarsest level's
-    /// smaller side at least 4 patches wide.
+    /// smaller side at least [`MIN_COARSE_SIDE_QUILT`] pixels (with a quilt
+    /// start) or 4 patches (otherwise) wide.
     pub levels: Option<usize>,
     /// Search + vote iterations per level. EbSynth: 6.
     pub search_vote_iters: usize,
@@ -76,10 +77,17 @@ pub struct Synthesized {
     pub levels: usize,
 }
 
-/// Pyramid levels for sides down to `min_side` >= 4 patches.
-fn auto_levels(min_side: usize, patch: usize) -> usize {
+/// Smallest coarsest-level side when the pyramid starts from a quilt. The
+/// quilt already lays out the large-scale structure; levels coarser than
+/// this only blur it: on gravel (512 px exemplar), going down to 32 px left
+/// flat, smeared blobs that the finer levels never recovered from, while
+/// stopping at 64 px kept every stone.
+pub const MIN_COARSE_SIDE_QUILT: usize = 64;
+
+/// Pyramid levels for sides down to `floor` pixels.
+fn auto_levels(min_side: usize, floor: usize) -> usize {
     let mut levels = 1;
-    while (min_side >> levels) >= 4 * patch && levels < 12 {
+    while (min_side >> levels) >= floor && levels < 12 {
         levels += 1;
     }
     levels
@@ -157,7 +165,9 @@ impl Synthesis<'_> {
         let r = params.patch / 2;
         let src = self.source;
         let min_side = src.width().min(src.height()).min(w).min(h);
-        let levels = params.levels.unwrap_or_else(|| auto_levels(min_side, params.patch)).max(1);
+        let quilt_start = params.init == Init::Quilt && self.source_mask.is_none() && self.fill.is_none();
+        let floor = if quilt_start { MIN_COARSE_SIDE_QUILT.max(4 * params.patch) } else { 4 * params.patch };
+        let levels = params.levels.unwrap_or_else(|| auto_levels(min_side, floor)).max(1);
         if (min_side >> (levels - 1)) < params.patch {
             return Err(Error::invalid(format!("{levels} pyramid levels shrink the smallest side ({min_side} px) below one patch")));
         }
@@ -194,7 +204,7 @@ impl Synthesis<'_> {
                 Some(coarse) => upsample_nnf(&coarse, tw, th, &domain, level_seed),
                 None => match params.init {
                     Init::Random => random_nnf(tw, th, &domain, level_seed),
-                    Init::Quilt if self.source_mask.is_none() && self.fill.is_none() => {
+                    Init::Quilt if quilt_start => {
                         let sg = sguide_pyr.as_ref().map(|p| &p[level]);
                         let tg = tguide_pyr.as_ref().map(|p| &p[level]);
                         self.quilt_field(style, sg, tg, (tw, th), &domain, level_seed)?

@@ -52,11 +52,16 @@ pub struct QuiltParams {
     pub boundary_cut: bool,
     /// Texture-transfer passes when guides are given (N in the paper).
     pub transfer_passes: usize,
+    /// Reuse penalty (not in the paper): a candidate's cost is multiplied by
+    /// 1 + reuse x the number of blocks already taken from around the same
+    /// exemplar spot. Without it, exemplars with easy smooth areas (peeling
+    /// paint) get the same few blocks repeated on a grid. 0 turns it off.
+    pub reuse: f32,
 }
 
 impl Default for QuiltParams {
     fn default() -> Self {
-        QuiltParams { block: None, overlap: None, tolerance: 0.1, min_candidates: 3, boundary_cut: true, transfer_passes: 3 }
+        QuiltParams { block: None, overlap: None, tolerance: 0.1, min_candidates: 3, boundary_cut: true, transfer_passes: 3, reuse: 0.5 }
     }
 }
 
@@ -72,8 +77,8 @@ impl QuiltParams {
         if ow == 0 || oh == 0 || ow >= bw || oh >= bh {
             return Err(Error::invalid(format!("overlap {ow}x{oh} must be at least 1 and smaller than the block {bw}x{bh}")));
         }
-        if !(self.tolerance >= 0.0) {
-            return Err(Error::invalid("quilting tolerance must be >= 0"));
+        if !(self.tolerance >= 0.0) || !(self.reuse >= 0.0) {
+            return Err(Error::invalid("quilting tolerance and reuse penalty must be >= 0"));
         }
         Ok(((bw, bh), (ow, oh)))
     }
@@ -249,6 +254,37 @@ fn vertical_cut(err: &[f32], cols: usize, rows: usize) -> Vec<usize> {
     path
 }
 
+/// How many blocks were taken from each cell (half a block wide) of the
+/// exemplar, counted after each wave so the counts never depend on threads.
+struct Usage {
+    cell: (usize, usize),
+    cols: usize,
+    rows: usize,
+    counts: Vec<u32>,
+}
+
+impl Usage {
+    fn new(source: (usize, usize), block: (usize, usize)) -> Self {
+        let cell = ((block.0 / 2).max(1), (block.1 / 2).max(1));
+        let (cols, rows) = (source.0.div_ceil(cell.0), source.1.div_ceil(cell.1));
+        Usage { cell, cols, rows, counts: vec![0; cols * rows] }
+    }
+    fn add(&mut self, sx: usize, sy: usize) {
+        self.counts[(sy / self.cell.1) * self.cols + sx / self.cell.0] += 1;
+    }
+    /// Blocks taken from the 3 x 3 cells around (sx, sy).
+    fn around(&self, sx: usize, sy: usize) -> u32 {
+        let (cx, cy) = (sx / self.cell.0, sy / self.cell.1);
+        let mut n = 0;
+        for y in cy.saturating_sub(1)..=(cy + 1).min(self.rows - 1) {
+            for x in cx.saturating_sub(1)..=(cx + 1).min(self.cols - 1) {
+                n += self.counts[y * self.cols + x];
+            }
+        }
+        n
+    }
+}
+
 /// Everything one quilting pass reads.
 struct Pass<'a> {
     source: &'a Image,
@@ -272,13 +308,15 @@ impl Pass<'_> {
         let (stx, sty) = (bw - self.overlap.0, bh - self.overlap.1);
         let mut canvas = Image::new(nx * stx + self.overlap.0, ny * sty + self.overlap.1, self.source.channels());
         let mut placements = Vec::with_capacity(nx * ny);
+        let mut usage = Usage::new(self.source.size(), self.block);
         let waves = 2 * (ny - 1) + (nx - 1) + 1;
         for wave in 0..waves {
             let blocks: Vec<(usize, usize)> =
                 (0..ny).filter_map(|i| wave.checked_sub(2 * i).filter(|&j| j < nx).map(|j| (i, j))).collect();
-            let planned: Vec<Placement> = blocks.par_iter().map(|&(i, j)| self.place(&canvas, i, j, nx)).collect();
+            let planned: Vec<Placement> = blocks.par_iter().map(|&(i, j)| self.place(&canvas, &usage, i, j, nx)).collect();
             for p in planned {
                 paste(&mut canvas, self.source, &p, self.block);
+                usage.add(p.source_x, p.source_y);
                 placements.push(p);
             }
             progress(placements.len(), nx * ny);
@@ -294,7 +332,7 @@ impl Pass<'_> {
     }
 
     /// Choose the source block for grid cell (i, j) and its seam.
-    fn place(&self, canvas: &Image, i: usize, j: usize, nx: usize) -> Placement {
+    fn place(&self, canvas: &Image, usage: &Usage, i: usize, j: usize, nx: usize) -> Placement {
         let (bw, bh) = self.block;
         let (ow, oh) = self.overlap;
         let (x, y) = (j * (bw - ow), i * (bh - oh));
@@ -331,6 +369,7 @@ impl Pass<'_> {
             }
             let costs = self.spectral.finish(q);
             let exact = |sx: usize, sy: usize| {
+                let reuse = 1.0 + self.params.reuse * usage.around(sx, sy) as f32;
                 let mut e = 0.0;
                 if m_sum > 0.0 {
                     e += scales.0 * masked_ssd(self.source, self.weights, &template, &overlap_mask, bw, bh, sx, sy);
@@ -341,7 +380,7 @@ impl Pass<'_> {
                 if let (Some((gimg, gw, _, _)), Some(t)) = (&self.guide, &guide_t) {
                     e += scales.2 * masked_ssd(gimg, gw, t, &full, bw, bh, sx, sy);
                 }
-                e
+                e * reuse
             };
             self.choose(&costs, vw, vh, exact, &mut g)
         };
@@ -350,7 +389,8 @@ impl Pass<'_> {
     }
 
     /// Pick a placement: local minima of `costs` within tolerance of the best
-    /// (re-scored exactly), never fewer than `min_candidates`.
+    /// (re-scored exactly, with the reuse penalty), never fewer than
+    /// `min_candidates`.
     fn choose(&self, costs: &[f32], vw: usize, vh: usize, exact: impl Fn(usize, usize) -> f32, g: &mut impl Rng) -> (usize, usize) {
         let mut minima: Vec<(f32, usize)> = Vec::new();
         for y in 0..vh {
