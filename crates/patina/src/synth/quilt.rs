@@ -77,7 +77,8 @@ impl QuiltParams {
         if ow == 0 || oh == 0 || ow >= bw || oh >= bh {
             return Err(Error::invalid(format!("overlap {ow}x{oh} must be at least 1 and smaller than the block {bw}x{bh}")));
         }
-        if !(self.tolerance >= 0.0) || !(self.reuse >= 0.0) {
+        let bad = |v: f32| v.is_nan() || v < 0.0;
+        if bad(self.tolerance) || bad(self.reuse) {
             return Err(Error::invalid("quilting tolerance and reuse penalty must be >= 0"));
         }
         Ok(((bw, bh), (ow, oh)))
