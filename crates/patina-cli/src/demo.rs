@@ -1,7 +1,7 @@
 //! `patina demo`: the whole pipeline on samples patina makes itself.
 
 use crate::output::{Manifest, Stopwatch};
-use crate::progress::Bar;
+use crate::progress::with_bar;
 use patina::image::io::{save_png, BitDepth};
 use patina::synth::{OptimizeParams, QuiltParams, Synthesis};
 use patina::{metrics, samples, Error, Result};
@@ -26,19 +26,13 @@ pub fn run(args: Args) -> Result<()> {
     let (w, h) = (256, 256);
     manifest.timings_ms.insert("make_exemplar".into(), clock.lap());
 
-    let bar = Bar::new("optimize");
-    let report = |d: u64, t: u64| bar.update(d, t);
     let mut optimize = OptimizeParams::default();
-    let optimized = Synthesis::new(&exemplar).size(w, h).seed(args.seed).progress(&report).optimize(&optimize)?;
-    bar.finish();
+    let optimized = with_bar("optimize", |report| Synthesis::new(&exemplar).size(w, h).seed(args.seed).progress(report).optimize(&optimize))?;
     optimize.levels = Some(optimized.levels);
     manifest.timings_ms.insert("optimize".into(), clock.lap());
 
-    let bar = Bar::new("quilt");
-    let report = |d: u64, t: u64| bar.update(d, t);
     let mut quilt = QuiltParams::default();
-    let quilted = Synthesis::new(&exemplar).size(w, h).seed(args.seed).progress(&report).quilt(&quilt)?;
-    bar.finish();
+    let quilted = with_bar("quilt", |report| Synthesis::new(&exemplar).size(w, h).seed(args.seed).progress(report).quilt(&quilt))?;
     (quilt.block, quilt.overlap) = (Some(quilted.plan.block), Some(quilted.plan.overlap));
     manifest.timings_ms.insert("quilt".into(), clock.lap());
 

@@ -4,10 +4,10 @@
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 
-pub struct Bar(ProgressBar);
+struct Bar(ProgressBar);
 
 impl Bar {
-    pub fn new(label: &str) -> Self {
+    fn new(label: &str) -> Self {
         let target = if std::io::stderr().is_terminal() { ProgressDrawTarget::stderr_with_hz(10) } else { ProgressDrawTarget::hidden() };
         let bar = ProgressBar::with_draw_target(Some(1), target);
         bar.set_style(
@@ -20,12 +20,20 @@ impl Bar {
     }
 
     /// The callback to hand to the library.
-    pub fn update(&self, done: u64, total: u64) {
+    fn update(&self, done: u64, total: u64) {
         self.0.set_length(total.max(1));
         self.0.set_position(done.min(total));
     }
 
-    pub fn finish(self) {
+    fn finish(self) {
         self.0.finish_and_clear();
     }
+}
+
+/// Run `work` with a bar labelled `label`, handing it the progress callback.
+pub fn with_bar<T>(label: &str, work: impl FnOnce(&(dyn Fn(u64, u64) + Sync)) -> T) -> T {
+    let bar = Bar::new(label);
+    let out = work(&|done, total| bar.update(done, total));
+    bar.finish();
+    out
 }

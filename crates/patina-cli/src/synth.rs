@@ -1,11 +1,11 @@
 //! `patina synth`: texture synthesis from an exemplar.
 
 use crate::output::{check_outputs, manifest_path, parse_size, Manifest, Stopwatch};
-use crate::progress::Bar;
+use crate::progress::with_bar;
 use clap::ValueEnum;
 use patina::image::io::{self, BitDepth};
 use patina::synth::{Init, OptimizeParams, QuiltParams, Synthesis, VoteWeights};
-use patina::{Error, Image, Result};
+use patina::Result;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -161,24 +161,6 @@ impl Args {
     }
 }
 
-/// Output kind from the extension; PNG needs 1 to 4 channels.
-fn check_format(out: &Path, channels: usize) -> Result<()> {
-    match out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("exr") => Ok(()),
-        Some("png") if channels <= 4 => Ok(()),
-        Some("png") => Err(Error::invalid(format!("{}: PNG holds at most 4 channels, the exemplar has {channels}; use .exr", out.display()))),
-        _ => Err(Error::invalid(format!("{}: output must end in .png or .exr", out.display()))),
-    }
-}
-
-pub fn save(img: &Image, out: &Path, bits: u8) -> Result<()> {
-    if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
-        io::save_exr(img, out)
-    } else {
-        io::save_png(img, out, if bits == 16 { BitDepth::Sixteen } else { BitDepth::Eight })
-    }
-}
-
 pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("synth", args.seed);
@@ -189,7 +171,8 @@ pub fn run(args: Args) -> Result<()> {
     check_outputs(&[&args.out, &manifest_file], &inputs)?;
 
     let exemplar = io::load(&args.exemplar)?;
-    check_format(&args.out, exemplar.channels())?;
+    io::output_format(&args.out, exemplar.channels())?;
+    let depth = if args.bits == 16 { BitDepth::Sixteen } else { BitDepth::Eight };
     let guides = match (&args.source_guide, &args.target_guide) {
         (Some(s), Some(t)) => Some((io::load(s)?, io::load(t)?)),
         _ => None,
@@ -197,37 +180,32 @@ pub fn run(args: Args) -> Result<()> {
     let size = args.size.or(guides.as_ref().map(|(_, t)| t.size())).unwrap_or((2 * exemplar.width(), 2 * exemplar.height()));
     manifest.timings_ms.insert("load".into(), clock.lap());
 
-    let bar = Bar::new("synth");
-    let report = |d: u64, t: u64| bar.update(d, t);
-    let mut problem = Synthesis::new(&exemplar).size(size.0, size.1).seed(args.seed).progress(&report);
-    if let Some((s, t)) = &guides {
-        problem = problem.guides(s, t, args.guide_weight);
-    }
-    let params = match args.method {
-        Method::Optimize => {
-            let mut p = args.optimize_params();
-            let out = problem.optimize(&p)?;
-            p.levels = Some(out.levels);
-            let texels = (p.patch * p.patch) as f32;
-            manifest.metrics.insert("mean_patch_rms".into(), json!((out.nnf.mean_cost(None) / texels).sqrt()));
-            bar.finish();
-            manifest.timings_ms.insert("synthesize".into(), clock.lap());
-            save(&out.image, &args.out, args.bits)?;
-            json!({ "method": "optimize", "optimize": p })
+    let (image, mut params) = with_bar("synth", |report| -> Result<_> {
+        let mut problem = Synthesis::new(&exemplar).size(size.0, size.1).seed(args.seed).progress(report);
+        if let Some((s, t)) = &guides {
+            problem = problem.guides(s, t, args.guide_weight);
         }
-        Method::Quilt => {
-            let mut p = args.quilt_params();
-            let out = problem.quilt(&p)?;
-            (p.block, p.overlap) = (Some(out.plan.block), Some(out.plan.overlap));
-            manifest.metrics.insert("blocks".into(), json!(out.plan.placements.len()));
-            bar.finish();
-            manifest.timings_ms.insert("synthesize".into(), clock.lap());
-            save(&out.image, &args.out, args.bits)?;
-            json!({ "method": "quilt", "quilt": p })
-        }
-    };
+        Ok(match args.method {
+            Method::Optimize => {
+                let mut p = args.optimize_params();
+                let out = problem.optimize(&p)?;
+                p.levels = Some(out.levels);
+                let texels = (p.patch * p.patch) as f32;
+                manifest.metrics.insert("mean_patch_rms".into(), json!((out.nnf.mean_cost(None) / texels).sqrt()));
+                (out.image, json!({ "method": "optimize", "optimize": p }))
+            }
+            Method::Quilt => {
+                let mut p = args.quilt_params();
+                let out = problem.quilt(&p)?;
+                (p.block, p.overlap) = (Some(out.plan.block), Some(out.plan.overlap));
+                manifest.metrics.insert("blocks".into(), json!(out.plan.placements.len()));
+                (out.image, json!({ "method": "quilt", "quilt": p }))
+            }
+        })
+    })?;
+    manifest.timings_ms.insert("synthesize".into(), clock.lap());
+    io::save(&image, &args.out, depth)?;
     manifest.timings_ms.insert("save".into(), clock.lap());
-    let mut params = params;
     params["size"] = json!([size.0, size.1]);
     params["guide_weight"] = json!(args.guide_weight);
     params["bits"] = json!(args.bits);

@@ -250,13 +250,30 @@ pub fn save_exr(img: &Image, path: impl AsRef<Path>) -> Result<()> {
     })
 }
 
-/// Save by extension: `.exr` as OpenEXR, anything else as 8-bit PNG.
-pub fn save(img: &Image, path: impl AsRef<Path>) -> Result<()> {
-    let path = path.as_ref();
+/// Output formats [`save`] picks by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Png,
+    Exr,
+}
+
+/// The format for writing an image of `channels` channels to `path`, or why
+/// it cannot be written there. Check before long work, not after.
+pub fn output_format(path: &Path, channels: usize) -> Result<Format> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("exr") => save_exr(img, path),
-        Some("png") => save_png(img, path, BitDepth::Eight),
+        Some("exr") => Ok(Format::Exr),
+        Some("png") if channels <= 4 => Ok(Format::Png),
+        Some("png") => Err(Error::invalid(format!("{}: PNG holds at most 4 channels, this image has {channels}; use .exr", path.display()))),
         _ => Err(Error::invalid(format!("{}: output must end in .png or .exr", path.display()))),
+    }
+}
+
+/// Save by extension: `.exr` as OpenEXR, `.png` as PNG of `depth` bits.
+pub fn save(img: &Image, path: impl AsRef<Path>, depth: BitDepth) -> Result<()> {
+    let path = path.as_ref();
+    match output_format(path, img.channels())? {
+        Format::Exr => save_exr(img, path),
+        Format::Png => save_png(img, path, depth),
     }
 }
 

@@ -112,14 +112,20 @@ pub fn pyr_down(img: &Image) -> Image {
     out
 }
 
-/// Gaussian pyramid, finest first: `levels` images, each half the previous.
-pub fn gaussian_pyramid(img: &Image, levels: usize) -> Vec<Image> {
-    let mut out = vec![img.clone()];
+/// A pyramid of anything, finest first: `first`, then `levels - 1` more,
+/// each `down` of the previous (images, masks, ...).
+pub fn pyramid<T>(first: T, levels: usize, down: impl Fn(&T) -> T) -> Vec<T> {
+    let mut out = vec![first];
     while out.len() < levels {
-        let next = pyr_down(out.last().expect("non-empty"));
+        let next = down(out.last().expect("non-empty"));
         out.push(next);
     }
     out
+}
+
+/// Gaussian pyramid, finest first: `levels` images, each half the previous.
+pub fn gaussian_pyramid(img: &Image, levels: usize) -> Vec<Image> {
+    pyramid(img.clone(), levels, pyr_down)
 }
 
 #[cfg(test)]

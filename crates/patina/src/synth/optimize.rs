@@ -11,7 +11,7 @@ use super::problem::Synthesis;
 use super::quilt::QuiltParams;
 use super::vote::{vote, VoteWeights};
 use crate::error::{Error, Result};
-use crate::image::resample::pyr_down;
+use crate::image::resample::{gaussian_pyramid, pyramid};
 use crate::image::{Image, Mask};
 use crate::rng;
 use serde::{Deserialize, Serialize};
@@ -109,15 +109,6 @@ fn mask_down(m: &Mask, any: bool) -> Mask {
     })
 }
 
-fn pyramid<T>(first: T, levels: usize, down: impl Fn(&T) -> T) -> Vec<T> {
-    let mut out = vec![first];
-    while out.len() < levels {
-        let next = down(out.last().expect("non-empty"));
-        out.push(next);
-    }
-    out
-}
-
 /// Pixels where some channel differs by at least `threshold`.
 fn changed(a: &Image, b: &Image, threshold: f32) -> Mask {
     let n = a.channels();
@@ -172,11 +163,11 @@ impl Synthesis<'_> {
             return Err(Error::invalid(format!("{levels} pyramid levels shrink the smallest side ({min_side} px) below one patch")));
         }
 
-        let style_pyr = pyramid(src.clone(), levels, pyr_down);
-        let sguide_pyr = self.source_guide.map(|g| pyramid(g.clone(), levels, pyr_down));
-        let tguide_pyr = self.target_guide.map(|g| pyramid(g.clone(), levels, pyr_down));
+        let style_pyr = gaussian_pyramid(src, levels);
+        let sguide_pyr = self.source_guide.map(|g| gaussian_pyramid(g, levels));
+        let tguide_pyr = self.target_guide.map(|g| gaussian_pyramid(g, levels));
         let allowed_pyr = self.source_mask.map(|m| pyramid(m.clone(), levels, |m| mask_down(m, false)));
-        let fill_pyr = self.fill.map(|(img, _)| pyramid(img.clone(), levels, pyr_down));
+        let fill_pyr = self.fill.map(|(img, _)| gaussian_pyramid(img, levels));
         let hole_pyr = self.fill.map(|(_, hole)| pyramid(hole.clone(), levels, |m| mask_down(m, true)));
         let mut sizes = vec![(w, h)];
         while sizes.len() < levels {

@@ -221,15 +221,10 @@ fn fit(img: &Image, w: usize, h: usize) -> Image {
     Image::from_fn(w, h, img.channels(), |x, y, p| p.copy_from_slice(img.pixel(x.min(img.width() - 1), y.min(img.height() - 1))))
 }
 
-/// The block-sized window of `img` at (x, y), interleaved.
+/// The block-sized window of `img` at (x, y), interleaved (always inside:
+/// canvases are whole numbers of blocks).
 fn window(img: &Image, x: usize, y: usize, bw: usize, bh: usize) -> Vec<f32> {
-    let n = img.channels();
-    let mut out = Vec::with_capacity(bw * bh * n);
-    for yy in y..y + bh {
-        let start = (yy * img.width() + x) * n;
-        out.extend_from_slice(&img.data()[start..start + bw * n]);
-    }
-    out
+    img.crop(x, y, bw, bh).expect("blocks lie inside the canvas").into_data()
 }
 
 /// Minimum-error cut through an error surface of `cols` x `rows` (row-major),
