@@ -112,8 +112,39 @@ pub fn seam_visibility(output: &Image, exemplar: &Image, seams: &Mask, patch: us
     Ok(mean_where(&rms_map(&nnf, &inside, patch), |x, y| seams.get(x, y)))
 }
 
+/// Area under the ROC curve of `scores` as a detector of `labels`: the
+/// probability that a random positive scores above a random negative (ties
+/// count half). 0.5 is chance, 1 is perfect separation. NaN when either
+/// class is empty.
+pub fn roc_auc(scores: &[f32], labels: &[bool]) -> f32 {
+    assert_eq!(scores.len(), labels.len());
+    let mut order: Vec<usize> = (0..scores.len()).collect();
+    order.sort_by(|&a, &b| scores[a].total_cmp(&scores[b]));
+    // Mann-Whitney U with average ranks over ties.
+    let (mut rank_sum, mut i) = (0f64, 0);
+    while i < order.len() {
+        let mut j = i;
+        while j + 1 < order.len() && scores[order[j + 1]] == scores[order[i]] {
+            j += 1;
+        }
+        let avg = (i + j) as f64 / 2.0 + 1.0;
+        rank_sum += (i..=j).filter(|&k| labels[order[k]]).count() as f64 * avg;
+        i = j + 1;
+    }
+    let pos = labels.iter().filter(|&&l| l).count() as f64;
+    let neg = labels.len() as f64 - pos;
+    ((rank_sum - pos * (pos + 1.0) / 2.0) / (pos * neg)) as f32
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn auc_is_one_for_separated_scores_and_half_for_ties() {
+        assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[false, false, true, true]), 1.0);
+        assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[true, true, false, false]), 0.0);
+        assert_eq!(roc_auc(&[0.5; 4], &[true, false, true, false]), 0.5);
+    }
+
     use super::*;
 
     #[test]

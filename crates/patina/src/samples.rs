@@ -2,8 +2,8 @@
 //! no data files needed. Each is a deterministic function of its size and
 //! seed.
 
-use crate::image::Image;
-use crate::rng;
+use crate::image::{Image, Mask};
+use crate::rng::{self, Rng};
 
 /// A hash of lattice point (x, y) under `seed`, uniform in [0, 1).
 fn lattice(seed: u64, x: i64, y: i64) -> f32 {
@@ -95,6 +95,39 @@ pub fn cobbles(width: usize, height: usize, seed: u64) -> Image {
     })
 }
 
+/// Gravel: pebbles on a jittered 7 px grid, each its own grey-brown tone
+/// with a lit top, dark gaps between them. Stationary and stochastic: no
+/// period, every region looks alike.
+pub fn gravel(width: usize, height: usize, seed: u64) -> Image {
+    let cell = 7.0f32;
+    Image::from_fn(width, height, 3, |x, y, p| {
+        let (fx, fy) = (x as f32 / cell, y as f32 / cell);
+        let (cx, cy) = (fx.floor() as i64, fy.floor() as i64);
+        let (mut d1, mut d2, mut id, mut off) = (f32::MAX, f32::MAX, (0, 0), (0.0, 0.0));
+        for j in -1..=1 {
+            for i in -1..=1 {
+                let (gx, gy) = (cx + i, cy + j);
+                let px = gx as f32 + 0.1 + 0.8 * lattice(seed, gx, gy);
+                let py = gy as f32 + 0.1 + 0.8 * lattice(seed ^ 0x31, gx, gy);
+                let d = ((px - fx).powi(2) + (py - fy).powi(2)).sqrt();
+                if d < d1 {
+                    (d2, d1, id, off) = (d1, d, (gx, gy), (fx - px, fy - py));
+                } else if d < d2 {
+                    d2 = d;
+                }
+            }
+        }
+        let gap = ((d2 - d1) * cell / 1.5).clamp(0.0, 1.0);
+        let tone = lattice(seed ^ 0x5a, id.0, id.1);
+        let warm = lattice(seed ^ 0x6b, id.0, id.1);
+        let lit = 1.0 - 0.5 * (off.1 + 0.3 * off.0).clamp(-1.0, 1.0);
+        let base = [0.35 + 0.35 * tone + 0.08 * warm, 0.33 + 0.33 * tone + 0.03 * warm, 0.3 + 0.3 * tone - 0.04 * warm];
+        for c in 0..3 {
+            p[c] = (base[c] * lit * (0.3 + 0.7 * gap)).clamp(0.0, 1.0);
+        }
+    })
+}
+
 /// Fractal colour noise (lichen-like blotches): a stochastic texture.
 pub fn blotches(width: usize, height: usize, seed: u64) -> Image {
     Image::from_fn(width, height, 3, |x, y, p| {
@@ -108,8 +141,120 @@ pub fn blotches(width: usize, height: usize, seed: u64) -> Image {
     })
 }
 
+/// Period, in pixels, of [`tiles`] in both directions.
+pub const TILE_PERIOD: usize = 32;
+
+/// Glazed ceramic tiles: cream squares of [`TILE_PERIOD`] px with grey
+/// grout and a teal ring motif, exactly periodic apart from a faint
+/// non-periodic glaze noise. The regular texture of the weathering tests.
+pub fn tiles(width: usize, height: usize, seed: u64) -> Image {
+    let p = TILE_PERIOD as f32;
+    Image::from_fn(width, height, 3, |x, y, px| {
+        let (u, v) = ((x % TILE_PERIOD) as f32, (y % TILE_PERIOD) as f32);
+        let glaze = 0.04 * (fractal_noise(seed, x as f32, y as f32, 4.0, 2) - 0.5);
+        let grout = u < 3.0 || v < 3.0;
+        let r = ((u - p / 2.0 - 1.5).powi(2) + (v - p / 2.0 - 1.5).powi(2)).sqrt();
+        let ring = ((r - 8.0).abs() - 1.5).clamp(0.0, 1.0);
+        let colour = if grout {
+            [0.52, 0.5, 0.47]
+        } else {
+            let c = [0.88, 0.84, 0.74];
+            let m = [0.2, 0.48, 0.52];
+            [0, 1, 2].map(|i| m[i] * (1.0 - ring) + c[i] * ring)
+        };
+        for c in 0..3 {
+            px[c] = (colour[c] + glaze).clamp(0.0, 1.0);
+        }
+    })
+}
+
+/// Kinds of weathering [`weather`] can inject.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Weathering {
+    /// Orange-brown rust blooms with their own grain.
+    Rust,
+    /// Dark, brownish water stains that keep the texture underneath.
+    Stain,
+    /// Thin dark cracks that wander and branch.
+    Cracks,
+}
+
+/// `base` with weathering of `kind` over about `area` (fraction, e.g. 0.1)
+/// of it, and the mask of the weathered pixels: ground truth for tests and
+/// a weathered demo input.
+pub fn weather(base: &Image, kind: Weathering, area: f32, seed: u64) -> (Image, Mask) {
+    let (w, h) = base.size();
+    let mut out = base.clone();
+    let mut mask = Mask::filled(w, h, false);
+    match kind {
+        Weathering::Rust | Weathering::Stain => {
+            // Blobs: the top `area` fraction of a smooth noise field.
+            let scale = (w.min(h) as f32 / 5.0).max(8.0);
+            let field: Vec<f32> = (0..w * h).map(|i| fractal_noise(seed, (i % w) as f32, (i / w) as f32, scale, 4)).collect();
+            let mut sorted = field.clone();
+            sorted.sort_by(f32::total_cmp);
+            let thr = sorted[((1.0 - area.clamp(0.0, 1.0)) * (w * h - 1) as f32) as usize];
+            let spread = 0.02;
+            for (i, &f) in field.iter().enumerate() {
+                let (x, y) = (i % w, i / w);
+                let a = ((f - thr) / spread + 0.5).clamp(0.0, 1.0);
+                if a <= 0.0 {
+                    continue;
+                }
+                mask.set(x, y, a >= 0.5);
+                let grain = fractal_noise(seed ^ 0x7a, x as f32, y as f32, 3.0, 3);
+                let p = out.pixel_mut(x, y);
+                let target = match kind {
+                    Weathering::Rust => [0.55 + 0.25 * grain, 0.24 + 0.12 * grain, 0.08 + 0.05 * grain],
+                    _ => [p[0] * 0.4 + 0.03, p[1] * 0.36 + 0.02, p[2] * 0.3],
+                };
+                for c in 0..3.min(p.len()) {
+                    p[c] = p[c] * (1.0 - a) + target[c] * a;
+                }
+            }
+        }
+        Weathering::Cracks => {
+            // Random walks with a persistent heading, branching now and then,
+            // until the cracks (2 px wide) cover `area`.
+            let mut g = rng::generator(seed, &[0xc7]);
+            let want = (area * (w * h) as f32) as usize;
+            let mut tips: Vec<(f32, f32, f32)> = Vec::new();
+            let mut steps = 0;
+            while mask.count() < want && steps < 50 * want {
+                steps += 1;
+                if tips.is_empty() {
+                    tips.push((g.gen_range(0.0..w as f32), g.gen_range(0.0..h as f32), g.gen_range(0.0..std::f32::consts::TAU)));
+                }
+                let k = g.gen_range(0..tips.len());
+                let (x, y, a) = tips[k];
+                let a = a + g.gen_range(-0.5f32..0.5);
+                let (nx, ny) = (x + a.cos(), y + a.sin());
+                if nx < 0.0 || ny < 0.0 || nx >= w as f32 - 1.0 || ny >= h as f32 - 1.0 {
+                    tips.swap_remove(k);
+                    continue;
+                }
+                tips[k] = (nx, ny, a);
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    mask.set(nx as usize + dx, ny as usize + dy, true);
+                }
+                if g.gen_range(0.0f32..1.0) < 0.01 && tips.len() < 6 {
+                    tips.push((nx, ny, a + g.gen_range(-1.2f32..1.2)));
+                }
+            }
+            for y in 0..h {
+                for x in 0..w {
+                    if mask.get(x, y) {
+                        out.pixel_mut(x, y).iter_mut().take(3).for_each(|v| *v = *v * 0.25 + 0.02);
+                    }
+                }
+            }
+        }
+    }
+    (out, mask)
+}
+
 /// Named samples, for the CLI.
-pub const NAMES: [&str; 3] = ["bricks", "cobbles", "blotches"];
+pub const NAMES: [&str; 5] = ["bricks", "cobbles", "blotches", "tiles", "gravel"];
 
 /// A sample by name.
 pub fn by_name(name: &str, width: usize, height: usize, seed: u64) -> Option<Image> {
@@ -117,6 +262,8 @@ pub fn by_name(name: &str, width: usize, height: usize, seed: u64) -> Option<Ima
         "bricks" => Some(bricks(width, height, seed)),
         "cobbles" => Some(cobbles(width, height, seed)),
         "blotches" => Some(blotches(width, height, seed)),
+        "tiles" => Some(tiles(width, height, seed)),
+        "gravel" => Some(gravel(width, height, seed)),
         _ => None,
     }
 }

@@ -127,6 +127,9 @@ pub struct SpectralSource {
     weights: Vec<f32>,
     spectra: Vec<Vec<C32>>,
     squares: Vec<C32>,
+    /// Summed-area table of Q, (width + 1) x (height + 1): the squares term
+    /// of an unmasked (box) template without a transform.
+    squares_sat: Vec<f64>,
 }
 
 /// Accumulates the terms of one query (see [`SpectralSource::add_term`]).
@@ -135,6 +138,8 @@ pub struct Query {
     kernel: Vec<C32>,
     values: Vec<f32>,
     constant: f64,
+    /// Weight of the box sum of Q (from [`SpectralSource::add_box_term`]).
+    box_scale: f64,
     scratch: Scratch,
     kw: usize,
     kh: usize,
@@ -162,7 +167,15 @@ impl SpectralSource {
         }
         let mut squares = vec![C32::new(0.0, 0.0); plans.spectrum_len()];
         plans.forward(&plane, w, h, &mut squares, &mut scratch);
-        SpectralSource { plans, width: w, height: h, channels: n, weights: weights.to_vec(), spectra, squares }
+        let mut squares_sat = vec![0f64; (w + 1) * (h + 1)];
+        for y in 0..h {
+            let mut row = 0f64;
+            for x in 0..w {
+                row += plane[y * w + x] as f64;
+                squares_sat[(y + 1) * (w + 1) + x + 1] = squares_sat[y * (w + 1) + x + 1] + row;
+            }
+        }
+        SpectralSource { plans, width: w, height: h, channels: n, weights: weights.to_vec(), spectra, squares, squares_sat }
     }
 
     fn scratch(plans: &Plans) -> Scratch {
@@ -190,6 +203,7 @@ impl SpectralSource {
             kernel: vec![C32::new(0.0, 0.0); len],
             values: vec![0.0; kw * kh],
             constant: 0.0,
+            box_scale: 0.0,
             scratch: Self::scratch(&self.plans),
             kw,
             kh,
@@ -203,6 +217,26 @@ impl SpectralSource {
         let (kw, kh, n) = (q.kw, q.kh, self.channels);
         assert_eq!(template.len(), kw * kh * n);
         assert_eq!(mask.len(), kw * kh);
+        self.add_cross_terms(q, template, Some(mask), scale);
+        self.plans.forward(mask, kw, kh, &mut q.kernel, &mut q.scratch);
+        for ((a, k), s) in q.acc.iter_mut().zip(&q.kernel).zip(&self.squares) {
+            *a += k.conj() * s * scale;
+        }
+    }
+
+    /// Add `scale` x the plain (unmasked) SSD between `template` and every
+    /// placement: like [`Self::add_term`] with a mask of ones, but the
+    /// squares term comes from a summed-area table instead of a transform.
+    pub fn add_box_term(&self, q: &mut Query, template: &[f32], scale: f32) {
+        let (kw, kh, n) = (q.kw, q.kh, self.channels);
+        assert_eq!(template.len(), kw * kh * n);
+        self.add_cross_terms(q, template, None, scale);
+        q.box_scale += scale as f64;
+    }
+
+    /// The template-only and cross-correlation terms of a masked SSD.
+    fn add_cross_terms(&self, q: &mut Query, template: &[f32], mask: Option<&[f32]>, scale: f32) {
+        let n = self.channels;
         for c in 0..n {
             let wc = self.weights[c];
             if wc == 0.0 {
@@ -210,18 +244,15 @@ impl SpectralSource {
             }
             for (i, v) in q.values.iter_mut().enumerate() {
                 let t = template[i * n + c];
-                *v = mask[i] * t;
-                q.constant += (scale * wc * mask[i] * t * t) as f64;
+                let m = mask.map_or(1.0, |m| m[i]);
+                *v = m * t;
+                q.constant += (scale * wc * m * t * t) as f64;
             }
-            self.plans.forward(&q.values, kw, kh, &mut q.kernel, &mut q.scratch);
+            self.plans.forward(&q.values, q.kw, q.kh, &mut q.kernel, &mut q.scratch);
             let f = -2.0 * scale * wc;
             for ((a, k), s) in q.acc.iter_mut().zip(&q.kernel).zip(&self.spectra[c]) {
                 *a += k.conj() * s * f;
             }
-        }
-        self.plans.forward(mask, kw, kh, &mut q.kernel, &mut q.scratch);
-        for ((a, k), s) in q.acc.iter_mut().zip(&q.kernel).zip(&self.squares) {
-            *a += k.conj() * s * scale;
         }
     }
 
@@ -241,8 +272,18 @@ impl SpectralSource {
         let (vw, vh) = (self.width - q.kw + 1, self.height - q.kh + 1);
         let mut out = Vec::with_capacity(vw * vh);
         let k = q.constant as f32;
+        let sw = self.width + 1;
+        let sat = &self.squares_sat;
         for y in 0..vh {
-            out.extend(full[y * fw..y * fw + vw].iter().map(|v| (v + k).max(0.0)));
+            out.extend(full[y * fw..y * fw + vw].iter().enumerate().map(|(x, v)| {
+                let boxed = if q.box_scale != 0.0 {
+                    let s = sat[(y + q.kh) * sw + x + q.kw] - sat[y * sw + x + q.kw] - sat[(y + q.kh) * sw + x] + sat[y * sw + x];
+                    (q.box_scale * s) as f32
+                } else {
+                    0.0
+                };
+                (v + k + boxed).max(0.0)
+            }));
         }
         out
     }
@@ -285,12 +326,19 @@ mod tests {
         let mut q = spectral.query(kw, kh);
         spectral.add_term(&mut q, &template, &mask, 2.0);
         let costs = spectral.finish(q);
+        let mut bq = spectral.query(kw, kh);
+        spectral.add_box_term(&mut bq, &template, 0.5);
+        let box_costs = spectral.finish(bq);
+        let ones = vec![1.0; kw * kh];
         assert_eq!(costs.len(), (37 - kw + 1) * (29 - kh + 1));
         for sy in 0..29 - kh + 1 {
             for sx in 0..37 - kw + 1 {
                 let want = 2.0 * masked_ssd(&src, &weights, &template, &mask, kw, kh, sx, sy);
                 let got = costs[sy * (37 - kw + 1) + sx];
                 assert!((want - got).abs() < 1e-3 * (1.0 + want), "at {sx},{sy}: {want} vs {got}");
+                let want = 0.5 * masked_ssd(&src, &weights, &template, &ones, kw, kh, sx, sy);
+                let got = box_costs[sy * (37 - kw + 1) + sx];
+                assert!((want - got).abs() < 1e-3 * (1.0 + want), "box at {sx},{sy}: {want} vs {got}");
             }
         }
     }

@@ -54,7 +54,7 @@ pub enum Init {
     Blocks,
     /// Image quilting (texture transfer when guided) at the coarsest level:
     /// the optimization starts from quilting's intact structure and only
-    /// refines it. Falls back to `Blocks` with masks, which quilting lacks.
+    /// refines it. Falls back to `Blocks` when filling a hole.
     Quilt,
 }
 
@@ -122,8 +122,12 @@ fn changed(a: &Image, b: &Image, threshold: f32) -> Mask {
 impl Synthesis<'_> {
     /// A field copying an image quilt of `style` (guided by the guides, if
     /// any) at `size`; positions outside `domain` are clamped into it.
-    fn quilt_field(&self, style: &Image, sg: Option<&Image>, tg: Option<&Image>, size: (usize, usize), domain: &SourceDomain, seed: u64) -> Result<Nnf> {
+    #[allow(clippy::too_many_arguments)]
+    fn quilt_field(&self, style: &Image, sg: Option<&Image>, tg: Option<&Image>, allowed: Option<&Mask>, size: (usize, usize), domain: &SourceDomain, seed: u64) -> Result<Nnf> {
         let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed);
+        if let Some(m) = allowed {
+            problem = problem.source_mask(m);
+        }
         if let (Some(s), Some(t)) = (sg, tg) {
             problem = problem.guides(s, t, self.guide_weight);
         }
@@ -156,7 +160,7 @@ impl Synthesis<'_> {
         let r = params.patch / 2;
         let src = self.source;
         let min_side = src.width().min(src.height()).min(w).min(h);
-        let quilt_start = params.init == Init::Quilt && self.source_mask.is_none() && self.fill.is_none();
+        let quilt_start = params.init == Init::Quilt && self.fill.is_none();
         let floor = if quilt_start { MIN_COARSE_SIDE_QUILT.max(4 * params.patch) } else { 4 * params.patch };
         let levels = params.levels.unwrap_or_else(|| auto_levels(min_side, floor)).max(1);
         if (min_side >> (levels - 1)) < params.patch {
@@ -198,7 +202,13 @@ impl Synthesis<'_> {
                     Init::Quilt if quilt_start => {
                         let sg = sguide_pyr.as_ref().map(|p| &p[level]);
                         let tg = tguide_pyr.as_ref().map(|p| &p[level]);
-                        self.quilt_field(style, sg, tg, (tw, th), &domain, level_seed)?
+                        let allowed = allowed_pyr.as_ref().map(|p| &p[level]);
+                        match self.quilt_field(style, sg, tg, allowed, (tw, th), &domain, level_seed) {
+                            Ok(field) => field,
+                            // A scattered source mask may leave no room for a whole block.
+                            Err(_) if allowed.is_some() => block_nnf(tw, th, &domain, INIT_BLOCK, level_seed),
+                            Err(e) => return Err(e),
+                        }
                     }
                     _ => block_nnf(tw, th, &domain, INIT_BLOCK, level_seed),
                 },

@@ -194,6 +194,28 @@ impl QuiltPlan {
     }
 }
 
+/// For each placement of a `block` in the mask's image (row-major over
+/// (w - bw + 1) x (h - bh + 1)), whether every pixel it covers is allowed.
+fn usable_placements(allowed: &Mask, (bw, bh): (usize, usize)) -> Vec<bool> {
+    let (w, h) = allowed.size();
+    let mut sat = vec![0u32; (w + 1) * (h + 1)];
+    for y in 0..h {
+        let mut row = 0;
+        for x in 0..w {
+            row += u32::from(!allowed.get(x, y));
+            sat[(y + 1) * (w + 1) + x + 1] = sat[y * (w + 1) + x + 1] + row;
+        }
+    }
+    let (vw, vh) = (w + 1 - bw, h + 1 - bh);
+    (0..vw * vh)
+        .map(|i| {
+            let (x, y) = (i % vw, i / vw);
+            let at = |xx: usize, yy: usize| sat[yy * (w + 1) + xx];
+            at(x + bw, y + bh) + at(x, y) == at(x, y + bh) + at(x + bw, y)
+        })
+        .collect()
+}
+
 fn grid(w: usize, h: usize, block: (usize, usize), overlap: (usize, usize)) -> (usize, usize) {
     let (sx, sy) = (block.0 - overlap.0, block.1 - overlap.1);
     (w.saturating_sub(overlap.0).div_ceil(sx).max(1), h.saturating_sub(overlap.1).div_ceil(sy).max(1))
@@ -295,6 +317,8 @@ struct Pass<'a> {
     overlap: (usize, usize),
     params: &'a QuiltParams,
     seed: u64,
+    /// Source mask: which block placements lie wholly on allowed pixels.
+    usable: Option<Vec<bool>>,
 }
 
 impl Pass<'_> {
@@ -351,7 +375,12 @@ impl Pass<'_> {
         let (vw, vh) = (sw - bw + 1, sh - bh + 1);
         let has_terms = m_sum > 0.0 || prev.is_some() || guide_t.is_some();
         let (sx, sy) = if !has_terms {
-            (g.gen_range(0..vw), g.gen_range(0..vh))
+            let free: Vec<usize> = match &self.usable {
+                Some(u) => (0..vw * vh).filter(|&i| u[i]).collect(),
+                None => (0..vw * vh).collect(),
+            };
+            let pick = free[g.gen_range(0..free.len())];
+            (pick % vw, pick / vw)
         } else {
             let mut q = self.spectral.query(bw, bh);
             if m_sum > 0.0 {
@@ -363,7 +392,10 @@ impl Pass<'_> {
             if let (Some((_, _, spec, _)), Some(t)) = (&self.guide, &guide_t) {
                 spec.add_term_into(&mut q, t, &full, scales.2);
             }
-            let costs = self.spectral.finish(q);
+            let mut costs = self.spectral.finish(q);
+            if let Some(u) = &self.usable {
+                costs.iter_mut().zip(u).filter(|(_, ok)| !**ok).for_each(|(c, _)| *c = f32::INFINITY);
+            }
             let exact = |sx: usize, sy: usize| {
                 let reuse = 1.0 + self.params.reuse * usage.around(sx, sy) as f32;
                 let mut e = 0.0;
@@ -392,6 +424,9 @@ impl Pass<'_> {
         for y in 0..vh {
             for x in 0..vw {
                 let c = costs[y * vw + x];
+                if c == f32::INFINITY {
+                    continue;
+                }
                 let is_min = (y.saturating_sub(1)..=(y + 1).min(vh - 1))
                     .all(|yy| (x.saturating_sub(1)..=(x + 1).min(vw - 1)).all(|xx| costs[yy * vw + xx] >= c));
                 if is_min {
@@ -463,8 +498,8 @@ impl Synthesis<'_> {
         let src = self.source;
         let (block, overlap) = params.resolve(src.width(), src.height())?;
         let (w, h) = self.validate(block.0.min(block.1))?;
-        if self.source_mask.is_some() || self.fill.is_some() {
-            return Err(Error::invalid("quilting does not take masks; use texture optimization"));
+        if self.fill.is_some() {
+            return Err(Error::invalid("quilting does not fill holes; use texture optimization"));
         }
         let metric = self.metric.clone().unwrap_or_else(|| super::PatchMetric::mean_ssd(src.channels()));
         let weights = metric.ssd_weights().ok_or_else(|| Error::invalid("quilting needs a weighted-SSD metric"))?;
@@ -493,7 +528,14 @@ impl Synthesis<'_> {
                 overlap: poverlap,
                 params,
                 seed: rng::derive(self.seed, &[pass as u64]),
+                usable: self.source_mask.map(|m| usable_placements(m, pblock)),
             };
+            if pass_state.usable.as_ref().is_some_and(|u| !u.contains(&true)) {
+                return Err(Error::invalid(format!(
+                    "no {}x{} block lies wholly inside the allowed source region",
+                    pblock.0, pblock.1
+                )));
+            }
             let report = |done: usize, total: usize| {
                 if let Some(p) = self.progress {
                     p((pass * total + done) as u64, (passes * total) as u64);

@@ -1,0 +1,8 @@
+//! Texture weathering from a single image (Bellini, Kleiman, Cohen-Or,
+//! "Time-varying Weathering in Texture Space", SIGGRAPH 2016).
+
+pub mod age;
+pub mod features;
+
+pub use age::{age_map, AgeMap, AgeParams};
+pub use features::Features;
