@@ -6,3 +6,6 @@ pub mod features;
 
 pub use age::{age_map, AgeMap, AgeParams};
 pub use features::Features;
+pub mod tiles;
+pub mod intact;
+pub mod rebuild;

@@ -1,0 +1,265 @@
+//! Tile detection (Bellini et al. 2016, section 5): is the texture a
+//! regular grid of tiles, and with which period?
+//!
+//! 1. Distance map of a central patch about a third of the image wide
+//!    against every placement in the image (FFT, [`SpectralSource`]).
+//! 2. Candidate tile positions: local minima among the lowest
+//!    [`CANDIDATE_QUANTILE`] of the map.
+//! 3. Verification by re-matching: a candidate stays when its distance is
+//!    well below the map's median ([`MATCH_RATIO`]) and when its own patch,
+//!    matched back against the image, finds the central patch again (a
+//!    minimum within 1 px of the centre, also below the ratio). Stochastic
+//!    textures have no such pairs.
+//! 4. Offsets between every pair of verified positions vote (within 1 px);
+//!    the two most frequent non-collinear offsets are the lattice basis,
+//!    refined to sub-pixel precision by least squares over all positions.
+//!
+//! [`median_tile`] then builds the template of section 5: at each pixel,
+//! the per-channel median over every tile at the same offset.
+
+use super::features::Features;
+use crate::image::{Image, Mask};
+use crate::synth::correlate::SpectralSource;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// Fraction of the distance map's lowest values that become candidates. Paper: 0.5%.
+pub const CANDIDATE_QUANTILE: f32 = 0.005;
+/// A repetition's distance must be below this fraction of the median distance.
+/// 0.7 finds the stained green circle tiles of ../shared/data (0.5 did
+/// not: each tile is stained differently) and still no lattice on any
+/// stochastic photo or sample.
+pub const MATCH_RATIO: f32 = 0.7;
+/// Fewest verified repetitions (besides the centre) that make a grid.
+pub const MIN_REPEATS: usize = 3;
+
+/// The lattice of a tiled texture: tile (i, j) starts at origin + i a + j b.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Lattice {
+    pub a: [f32; 2],
+    pub b: [f32; 2],
+    pub origin: [f32; 2],
+}
+
+/// Detect a tile grid; `None` means a stochastic texture.
+pub fn detect(img: &Image) -> Option<Lattice> {
+    let (w, h) = img.size();
+    let (pw, ph) = ((w / 3).max(4), (h / 3).max(4));
+    if w < 2 * pw || h < 2 * ph {
+        return None;
+    }
+    let f = Features::new(img, true).ok()?;
+    let stacked = f.stacked();
+    let weights = f.weights(1.0, 4.0);
+    let spectral = SpectralSource::new(&stacked, &weights);
+    let (vw, vh) = (w - pw + 1, h - ph + 1);
+    let distances = |x: usize, y: usize| -> Vec<f32> {
+        let t = stacked.crop(x, y, pw, ph).expect("placement inside the image").into_data();
+        let mut q = spectral.query(pw, ph);
+        spectral.add_box_term(&mut q, &t, 1.0);
+        spectral.finish(q)
+    };
+    let centre = ((w - pw) / 2, (h - ph) / 2);
+    let map = distances(centre.0, centre.1);
+    let mut sorted = map.clone();
+    sorted.sort_by(f32::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    if median <= 0.0 {
+        return None; // a flat image: no structure to repeat
+    }
+    let cut = sorted[((sorted.len() as f32 * CANDIDATE_QUANTILE) as usize).min(sorted.len() - 1)];
+    let min_at = |m: &[f32], x: usize, y: usize| {
+        let v = m[y * vw + x];
+        (y.saturating_sub(1)..=(y + 1).min(vh - 1)).all(|yy| (x.saturating_sub(1)..=(x + 1).min(vw - 1)).all(|xx| m[yy * vw + xx] >= v))
+    };
+    let candidates: Vec<(usize, usize)> = (0..vw * vh)
+        .map(|i| (i % vw, i / vw))
+        .filter(|&(x, y)| (x, y) != centre && map[y * vw + x] <= cut && map[y * vw + x] < MATCH_RATIO * median && min_at(&map, x, y))
+        .collect();
+    // Re-match each candidate's own patch and look for the centre.
+    let verified: Vec<(usize, usize)> = candidates
+        .par_iter()
+        .filter(|&&(x, y)| {
+            let back = distances(x, y);
+            let mut s = back.clone();
+            s.sort_by(f32::total_cmp);
+            let med = s[s.len() / 2];
+            let near = (centre.1.saturating_sub(1)..=(centre.1 + 1).min(vh - 1))
+                .flat_map(|yy| (centre.0.saturating_sub(1)..=(centre.0 + 1).min(vw - 1)).map(move |xx| (xx, yy)))
+                .map(|(xx, yy)| back[yy * vw + xx])
+                .fold(f32::INFINITY, f32::min);
+            near < MATCH_RATIO * med
+        })
+        .copied()
+        .collect();
+    if verified.len() < MIN_REPEATS {
+        return None;
+    }
+    let mut points: Vec<[f32; 2]> = verified.iter().map(|&(x, y)| [x as f32, y as f32]).collect();
+    points.push([centre.0 as f32, centre.1 as f32]);
+    let (a, b) = basis(&points)?;
+    let lattice = reduce(refine(&points, a, b, [centre.0 as f32, centre.1 as f32]));
+    // Express the origin as the lattice point nearest the image's top-left.
+    let o = lattice.origin;
+    let inv = invert(lattice.a, lattice.b)?;
+    let (i, j) = (inv[0][0] * o[0] + inv[0][1] * o[1], inv[1][0] * o[0] + inv[1][1] * o[1]);
+    let (i, j) = (i.floor(), j.floor());
+    let origin = [o[0] - i * lattice.a[0] - j * lattice.b[0], o[1] - i * lattice.a[1] - j * lattice.b[1]];
+    Some(Lattice { origin, ..lattice })
+}
+
+/// The two most frequent non-collinear pairwise offsets (each counted with
+/// the offsets within 1 px of it), shortest first.
+fn basis(points: &[[f32; 2]]) -> Option<([f32; 2], [f32; 2])> {
+    let mut offsets: Vec<[i32; 2]> = Vec::new();
+    for (i, p) in points.iter().enumerate() {
+        for q in &points[i + 1..] {
+            let (mut dx, mut dy) = ((q[0] - p[0]) as i32, (q[1] - p[1]) as i32);
+            // One sign per direction: dx > 0, or dx == 0 and dy > 0.
+            if dx < 0 || (dx == 0 && dy < 0) {
+                (dx, dy) = (-dx, -dy);
+            }
+            offsets.push([dx, dy]);
+        }
+    }
+    let votes = |o: [i32; 2]| offsets.iter().filter(|v| (v[0] - o[0]).abs() <= 1 && (v[1] - o[1]).abs() <= 1).count();
+    let mut ranked: Vec<([i32; 2], usize)> = offsets.iter().map(|&o| (o, votes(o))).collect();
+    let len2 = |o: [i32; 2]| o[0] * o[0] + o[1] * o[1];
+    ranked.sort_by(|x, y| y.1.cmp(&x.1).then(len2(x.0).cmp(&len2(y.0))).then(x.0.cmp(&y.0)));
+    let a = ranked.first()?.0;
+    let b = ranked.iter().find(|(o, n)| {
+        let cross = (a[0] * o[1] - a[1] * o[0]).abs() as f32;
+        *n >= 2 && cross > 0.5 * (len2(a) as f32).sqrt() * (len2(*o) as f32).sqrt()
+    })?;
+    let f = |o: [i32; 2]| [o[0] as f32, o[1] as f32];
+    Some((f(a), f(b.0)))
+}
+
+/// Gauss (Lagrange) reduction: the same lattice with its shortest basis.
+fn reduce(mut l: Lattice) -> Lattice {
+    let dot = |u: [f32; 2], v: [f32; 2]| u[0] * v[0] + u[1] * v[1];
+    for _ in 0..32 {
+        if dot(l.a, l.a) > dot(l.b, l.b) {
+            std::mem::swap(&mut l.a, &mut l.b);
+        }
+        let m = (dot(l.a, l.b) / dot(l.a, l.a)).round();
+        if m == 0.0 {
+            break;
+        }
+        l.b = [l.b[0] - m * l.a[0], l.b[1] - m * l.a[1]];
+    }
+    l
+}
+
+/// Inverse of the 2x2 matrix with columns a and b.
+fn invert(a: [f32; 2], b: [f32; 2]) -> Option<[[f32; 2]; 2]> {
+    let det = a[0] * b[1] - b[0] * a[1];
+    (det.abs() > 1e-6).then(|| [[b[1] / det, -b[0] / det], [-a[1] / det, a[0] / det]])
+}
+
+/// Least-squares lattice through `points`: each gets integer coordinates
+/// (i, j) under the integer basis, then origin, a, b minimise
+/// sum |p - origin - i a - j b|^2.
+fn refine(points: &[[f32; 2]], a: [f32; 2], b: [f32; 2], origin: [f32; 2]) -> Lattice {
+    let Some(inv) = invert(a, b) else { return Lattice { a, b, origin } };
+    let coords: Vec<[f32; 3]> = points
+        .iter()
+        .map(|p| {
+            let d = [p[0] - origin[0], p[1] - origin[1]];
+            [1.0, (inv[0][0] * d[0] + inv[0][1] * d[1]).round(), (inv[1][0] * d[0] + inv[1][1] * d[1]).round()]
+        })
+        .collect();
+    // Normal equations (3 x 3, shared by the x and y coordinates).
+    let mut m = nalgebra::Matrix3::<f64>::zeros();
+    let mut rhs = nalgebra::Matrix3x2::<f64>::zeros();
+    for (c, p) in coords.iter().zip(points) {
+        for r in 0..3 {
+            for s in 0..3 {
+                m[(r, s)] += (c[r] * c[s]) as f64;
+            }
+            rhs[(r, 0)] += (c[r] * p[0]) as f64;
+            rhs[(r, 1)] += (c[r] * p[1]) as f64;
+        }
+    }
+    match m.try_inverse() {
+        Some(mi) => {
+            let sol = mi * rhs;
+            let g = |r: usize| [sol[(r, 0)] as f32, sol[(r, 1)] as f32];
+            Lattice { origin: g(0), a: g(1), b: g(2) }
+        }
+        None => Lattice { a, b, origin },
+    }
+}
+
+/// Bilinear sample of all channels at (x, y), or `None` outside the image.
+fn sample(img: &Image, x: f32, y: f32, out: &mut [f32]) -> bool {
+    let (w, h) = img.size();
+    if x < 0.0 || y < 0.0 || x > (w - 1) as f32 || y > (h - 1) as f32 {
+        return false;
+    }
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+    let (p00, p10, p01, p11) = (img.pixel(x0, y0), img.pixel(x1, y0), img.pixel(x0, y1), img.pixel(x1, y1));
+    for c in 0..out.len() {
+        out[c] = (p00[c] * (1.0 - fx) + p10[c] * fx) * (1.0 - fy) + (p01[c] * (1.0 - fx) + p11[c] * fx) * fy;
+    }
+    true
+}
+
+/// The median tile: each pixel is the per-channel median of the image at
+/// the same offset in every tile (bilinear, so sub-pixel periods line up).
+/// With `allowed`, samples at pixels outside it are left out wherever at
+/// least one sample is allowed.
+pub fn median_tile(img: &Image, lattice: &Lattice, allowed: Option<&Mask>) -> Image {
+    let (w, h, n) = (img.width(), img.height(), img.channels());
+    let Some(inv) = invert(lattice.a, lattice.b) else { return img.clone() };
+    // Range of tile indices that can reach the image.
+    let corners = [[0.0, 0.0], [w as f32, 0.0], [0.0, h as f32], [w as f32, h as f32]];
+    let (mut lo, mut hi) = ([i32::MAX; 2], [i32::MIN; 2]);
+    for c in corners {
+        let d = [c[0] - lattice.origin[0], c[1] - lattice.origin[1]];
+        let ij = [inv[0][0] * d[0] + inv[0][1] * d[1], inv[1][0] * d[0] + inv[1][1] * d[1]];
+        for k in 0..2 {
+            lo[k] = lo[k].min(ij[k].floor() as i32 - 1);
+            hi[k] = hi[k].max(ij[k].ceil() as i32 + 1);
+        }
+    }
+    let mut data = vec![0f32; w * h * n];
+    data.par_chunks_mut(w * n).enumerate().for_each(|(y, row)| {
+        let mut values: Vec<Vec<f32>> = vec![Vec::new(); n];
+        let mut rejected: Vec<Vec<f32>> = vec![Vec::new(); n];
+        let mut px = vec![0f32; n];
+        for x in 0..w {
+            values.iter_mut().chain(rejected.iter_mut()).for_each(Vec::clear);
+            for i in lo[0]..=hi[0] {
+                for j in lo[1]..=hi[1] {
+                    let sx = x as f32 + i as f32 * lattice.a[0] + j as f32 * lattice.b[0];
+                    let sy = y as f32 + i as f32 * lattice.a[1] + j as f32 * lattice.b[1];
+                    if sample(img, sx, sy, &mut px) {
+                        let ok = allowed.is_none_or(|m| m.get(sx.round() as usize, sy.round() as usize));
+                        let into = if ok { &mut values } else { &mut rejected };
+                        for c in 0..n {
+                            into[c].push(px[c]);
+                        }
+                    }
+                }
+            }
+            if values[0].is_empty() {
+                std::mem::swap(&mut values, &mut rejected);
+            }
+            for c in 0..n {
+                let v = &mut values[c];
+                row[x * n + c] = if v.is_empty() {
+                    img.at(x, y, c)
+                } else {
+                    let mid = v.len() / 2;
+                    *v.select_nth_unstable_by(mid, f32::total_cmp).1
+                };
+            }
+        }
+    });
+    let mut out = Image::from_data(w, h, n, data).expect("sizes match");
+    out.set_groups(img.groups().to_vec()).expect("same channels");
+    out
+}
