@@ -4,11 +4,9 @@ use patina::weather::{age_map, AgeParams};
 fn main() {
     let configs: Vec<(&str, AgeParams)> = vec![
         ("default", AgeParams::default()),
-        ("smooth .25", AgeParams { smoothing: 0.25, ..Default::default() }),
-        ("smooth 1", AgeParams { smoothing: 1.0, ..Default::default() }),
-        ("grid 32", AgeParams { grid: 32, ..Default::default() }),
-        ("k 0.25", AgeParams { k_fraction: Some(0.25), ..Default::default() }),
-        ("k 0.6", AgeParams { k_fraction: Some(0.6), ..Default::default() }),
+        ("k 0.1", AgeParams { k_fraction: Some(0.1), ..Default::default() }),
+        ("k 0.2", AgeParams { k_fraction: Some(0.2), ..Default::default() }),
+        ("k10", AgeParams { k_fraction: None, ..Default::default() }),
     ];
     let size: usize = std::env::args().nth(1).map_or(256, |s| s.parse().unwrap());
     for (name, p) in &configs {

@@ -1,11 +1,129 @@
 //! Texture weathering from a single image (Bellini, Kleiman, Cohen-Or,
 //! "Time-varying Weathering in Texture Space", SIGGRAPH 2016).
+//!
+//! - [`age`]: the age map (section 4), what is weathered and how much.
+//! - [`tiles`] and [`intact`]: the texture before it weathered (section 5).
+//! - [`sequence`]: de-weathering and weathering frames (section 6).
+//! - [`transfer`]: weathering of one texture carried onto another (section 7).
+//! - [`layers`]: colour layers aged separately.
+//! - [`rebuild`]: templates made real with input patches (all sections).
+//!
+//! [`weather`] runs the whole method on one image.
 
 pub mod age;
 pub mod features;
+pub mod intact;
+pub mod rebuild;
+pub mod sequence;
+pub mod tiles;
 
 pub use age::{age_map, AgeMap, AgeParams};
 pub use features::Features;
-pub mod tiles;
-pub mod intact;
-pub mod rebuild;
+pub use intact::{intact, Intact, IntactParams};
+pub use sequence::{Frame, SequenceParams};
+
+use crate::error::{Error, Result};
+use crate::image::Image;
+use serde::{Deserialize, Serialize};
+
+/// Every parameter of the method, with the paper's defaults.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct WeatherParams {
+    pub age: AgeParams,
+    pub intact: IntactParams,
+    pub sequence: SequenceParams,
+}
+
+/// Inputs that replace automatic steps.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Overrides<'a> {
+    /// A user-painted age map (one channel, [0, 1], white = weathered).
+    pub age: Option<&'a Image>,
+    /// A user-provided intact texture.
+    pub intact: Option<&'a Image>,
+}
+
+/// Stages of [`weather`], reported to the progress callback.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    AgeMap,
+    Intact,
+    /// Past frame k of n is done.
+    Past(usize, usize),
+    /// Future frame k of n is done.
+    Future(usize, usize),
+}
+
+/// The result of [`weather`].
+#[derive(Clone, Debug)]
+pub struct Weathered {
+    /// The age map (one channel, 0 intact .. 1 most weathered).
+    pub age: Image,
+    /// Grid N, patch size and K of the automatic age map (`None` when given).
+    pub age_grid: Option<(usize, (usize, usize), usize)>,
+    pub intact: Image,
+    /// The tile grid, when one was found.
+    pub lattice: Option<tiles::Lattice>,
+    /// Every frame in time order: intact (t = 0), past, input (t = 1), future.
+    pub frames: Vec<Frame>,
+}
+
+/// The whole method on `input` (sRGB colour or grey, values in [0, 1]).
+pub fn weather(input: &Image, params: &WeatherParams, overrides: Overrides, seed: u64, progress: &(dyn Fn(Stage) + Sync)) -> Result<Weathered> {
+    let (age, age_grid) = match overrides.age {
+        Some(a) => {
+            if a.size() != input.size() {
+                return Err(Error::invalid(format!(
+                    "the age map is {}x{} but the input is {}x{}",
+                    a.width(),
+                    a.height(),
+                    input.width(),
+                    input.height()
+                )));
+            }
+            (crate::image::color::luminance(a).map(|v| v.clamp(0.0, 1.0)), None)
+        }
+        None => {
+            let a = age_map(input, &params.age)?;
+            (a.map, Some((a.grid, a.patch, a.k)))
+        }
+    };
+    progress(Stage::AgeMap);
+    let (intact_img, lattice) = match overrides.intact {
+        Some(i) => {
+            if i.size() != input.size() || i.channels() != input.channels() {
+                return Err(Error::invalid(format!(
+                    "the intact texture ({}x{}, {} channels) must match the input ({}x{}, {} channels)",
+                    i.width(),
+                    i.height(),
+                    i.channels(),
+                    input.width(),
+                    input.height(),
+                    input.channels()
+                )));
+            }
+            (i.clone(), None)
+        }
+        None => {
+            let r = intact(input, &age, &params.intact, crate::rng::derive(seed, &[1]))?;
+            (r.image, r.lattice)
+        }
+    };
+    progress(Stage::Intact);
+    let sp = &params.sequence;
+    let past = sequence::past(input, &intact_img, &age, sp, crate::rng::derive(seed, &[2]), &|k| progress(Stage::Past(k, sp.past)))?;
+    let (cells, patch) = match age_grid {
+        Some((n, (pw, ph), _)) => (n * n, pw.min(ph)),
+        None => {
+            let (n, (pw, ph)) = params.age.resolve(input.width(), input.height())?;
+            (n * n, pw.min(ph))
+        }
+    };
+    let future = sequence::future(input, &intact_img, &age, cells, patch, sp, crate::rng::derive(seed, &[3]), &|k| progress(Stage::Future(k, sp.future)))?;
+    let mut frames = vec![Frame { t: 0.0, image: intact_img.clone() }];
+    frames.extend(past);
+    frames.push(Frame { t: 1.0, image: input.clone() });
+    frames.extend(future);
+    Ok(Weathered { age, age_grid, intact: intact_img, lattice, frames })
+}

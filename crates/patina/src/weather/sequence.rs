@@ -1,0 +1,283 @@
+//! Weathering and de-weathering sequences (Bellini et al. 2016, section 6).
+//!
+//! Past, t in (0, 1): a pixel of age a is intact at time t when
+//! a < 1 - t; otherwise its age at t is a - (1 - t), and the template
+//! blends intact and input by the share of its final age it has reached,
+//! (a - (1 - t)) / a. Each template is rebuilt from input patches
+//! ([`super::rebuild`]).
+//!
+//! Future, t > 1 (eq. 2), each frame from the previous one: `steps` times,
+//! pick a random patch P; m = max over P of Delta = |t_i - intact| (as a
+//! fraction of the input's largest Delta); find a patch Q' of the input
+//! whose age is m + delta; around Q', over the eight rotations and mirrors,
+//! take the patch Q whose structure (the smoothed edge map of the intact
+//! texture) best agrees with P's; blend
+//! t_{i+1}(P) = t_i(P) (1 - Delta_Q) + input(Q) Delta_Q, with Delta_Q
+//! feathered towards the patch's edges (not in the paper: hard squares
+//! showed). Then rebuild the frame from input patches.
+//!
+//! Monotonic, no flicker: after each rebuild, every pixel keeps whichever
+//! of the new frame and the previous frame is farther from the intact
+//! texture. Pixels whose template did not change keep the previous frame
+//! exactly (a rebuild is a new synthesis and would otherwise add noise).
+
+use super::rebuild::{colour_distance, rebuild, Engine, RebuildParams};
+use crate::error::{Error, Result};
+use crate::image::filter::{gaussian_blur, gradients};
+use crate::image::Image;
+use crate::rng::{self, Rng};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the sequences.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct SequenceParams {
+    /// Frames between the intact texture (t = 0) and the input (t = 1).
+    pub past: usize,
+    /// Frames after the input, evenly spaced up to t = 1 + `future_span`.
+    pub future: usize,
+    /// How far past the input the last future frame lies, in t.
+    pub future_span: f32,
+    /// Patch blends per future frame; `None` = half the age map's
+    /// cells (N^2 / 2): each frame then touches about half the area.
+    pub steps: Option<usize>,
+    /// delta of eq. (2): how much older than P the copied patch Q is.
+    pub delta: f32,
+    /// Side of the blended patches P and Q; `None` = the age map's patch.
+    pub patch: Option<usize>,
+    /// Half-width of the window around Q' searched for structure agreement,
+    /// in patch sides.
+    pub search: f32,
+    /// How templates are rebuilt from input patches.
+    pub rebuild: RebuildParams,
+}
+
+impl Default for SequenceParams {
+    fn default() -> Self {
+        SequenceParams { past: 3, future: 3, future_span: 1.0, steps: None, delta: 0.15, patch: None, search: 0.5, rebuild: RebuildParams::default() }
+    }
+}
+
+/// One frame of a sequence: its time (0 intact, 1 input, > 1 future).
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub t: f32,
+    pub image: Image,
+}
+
+/// Pixels whose change exceeds this (colour distance) take the rebuilt frame.
+const CHANGED: f32 = 0.02;
+
+/// `rebuilt` where the template moved away from `previous`, `previous`
+/// elsewhere, and per pixel the one farther from `intact`.
+fn settle(rebuilt: &Image, template: &Image, previous: &Image, intact: &Image) -> Result<Image> {
+    let moved = colour_distance(template, previous)?;
+    let moved = Image::from_data(template.width(), template.height(), 1, moved)?;
+    // Feather the changed region over a couple of pixels.
+    let weight = gaussian_blur(&moved.map(|v| if v > CHANGED { 1.0 } else { 0.0 }), 1.0);
+    let d_new = colour_distance(rebuilt, intact)?;
+    let d_old = colour_distance(previous, intact)?;
+    let n = previous.channels();
+    let mut out = previous.clone();
+    for (i, px) in out.data_mut().chunks_exact_mut(n).enumerate() {
+        let w = (weight.data()[i] * 2.0).min(1.0);
+        if w > 0.0 && d_new[i] > d_old[i] {
+            let r = &rebuilt.data()[i * n..(i + 1) * n];
+            px.iter_mut().zip(r).for_each(|(p, q)| *p += w * (q - *p));
+        }
+    }
+    Ok(out)
+}
+
+/// Frames for t in (0, 1), oldest last, given the input, its intact
+/// texture and its age map.
+pub fn past(input: &Image, intact: &Image, age: &Image, params: &SequenceParams, seed: u64, progress: &dyn Fn(usize)) -> Result<Vec<Frame>> {
+    check_sizes(input, intact, age)?;
+    let mut previous = intact.clone();
+    let mut frames = Vec::with_capacity(params.past);
+    for k in 1..=params.past {
+        let t = k as f32 / (params.past + 1) as f32;
+        let template = Image::from_fn(input.width(), input.height(), input.channels(), |x, y, p| {
+            let a = age.at(x, y, 0);
+            let share = if a > 1.0 - t && a > 0.0 { (a - (1.0 - t)) / a } else { 0.0 };
+            for (c, v) in p.iter_mut().enumerate() {
+                *v = intact.at(x, y, c) * (1.0 - share) + input.at(x, y, c) * share;
+            }
+        });
+        let rebuilt = rebuild(input, &template, None, Engine::Optimize, &params.rebuild, rng::derive(seed, &[k as u64]))?;
+        previous = settle(&rebuilt, &template, &previous, intact)?;
+        frames.push(Frame { t, image: previous.clone() });
+        progress(k);
+    }
+    Ok(frames)
+}
+
+/// The eight rotations and mirrors of a square patch of side `s`: local
+/// (u, v) to offsets inside the source patch.
+fn orient(o: usize, u: usize, v: usize, s: usize) -> (usize, usize) {
+    let (u, v) = if o & 4 != 0 { (s - 1 - u, v) } else { (u, v) };
+    match o & 3 {
+        0 => (u, v),
+        1 => (s - 1 - v, u),
+        2 => (s - 1 - u, s - 1 - v),
+        _ => (v, s - 1 - u),
+    }
+}
+
+/// Frames for t > 1, each grown from the previous by eq. (2).
+#[allow(clippy::too_many_arguments)]
+pub fn future(input: &Image, intact: &Image, age: &Image, grid_cells: usize, age_patch: usize, params: &SequenceParams, seed: u64, progress: &dyn Fn(usize)) -> Result<Vec<Frame>> {
+    check_sizes(input, intact, age)?;
+    let (w, h, n) = (input.width(), input.height(), input.channels());
+    let s = params.patch.unwrap_or(age_patch).clamp(3, w.min(h));
+    if !(params.delta >= 0.0 && params.delta <= 1.0) || !(params.future_span > 0.0) || !(params.search >= 0.0) {
+        return Err(Error::invalid("future frames need delta in [0, 1], a positive span and a non-negative search window"));
+    }
+    let steps = params.steps.unwrap_or(grid_cells / 2);
+    // Delta of the input, normalised to [0, 1] over the texture.
+    let delta_in = colour_distance(input, intact)?;
+    let scale = delta_in.iter().fold(0f32, |a, &b| a.max(b)).max(1e-6);
+    let delta_in: Vec<f32> = delta_in.iter().map(|d| d / scale).collect();
+    // Smoothed edge map of the intact texture: the structure P and Q must share.
+    let edges = gaussian_blur(&gradients(intact).magnitude, 1.5);
+    // Mean age of every s x s patch (summed-area table).
+    let (vw, vh) = (w - s + 1, h - s + 1);
+    let patch_age = box_means(age, s);
+    let radius = ((params.search * s as f32) as usize).max(1);
+    // Feathering of the pasted patch (not in the paper): without it every
+    // blend is a hard square and rust grows in visible square steps.
+    let window: Vec<f32> = (0..s * s)
+        .map(|i| {
+            let f = |k: usize| (std::f32::consts::PI * (k as f32 + 0.5) / s as f32).sin();
+            (2.0 * f(i % s) * f(i / s)).min(1.0)
+        })
+        .collect();
+    let mut current = input.clone();
+    let mut frames = Vec::with_capacity(params.future);
+    for k in 1..=params.future {
+        let t = 1.0 + params.future_span * k as f32 / params.future as f32;
+        let mut g = rng::generator(seed, &[0xf0, k as u64]);
+        let mut template = current.clone();
+        for _ in 0..steps {
+            let (px, py) = (g.gen_range(0..vw), g.gen_range(0..vh));
+            // m: the most weathered value of Delta over P.
+            let mut m = 0f32;
+            for v in 0..s {
+                for u in 0..s {
+                    let i = (py + v) * w + px + u;
+                    let d = colour_distance_px(&template.data()[i * n..i * n + n.min(3)], &intact.data()[i * n..i * n + n.min(3)]);
+                    m = m.max(d / scale);
+                }
+            }
+            let want = (m + params.delta).min(1.0);
+            // Q': a random patch among the 16 whose mean age is nearest `want`.
+            let qprime = nearest_age(&patch_age, want, 16, &mut g);
+            let (qx0, qy0) = (qprime % vw, qprime / vw);
+            // Q: around Q', the placement and orientation whose intact
+            // structure agrees best with P's.
+            let mut best = (f32::INFINITY, qx0, qy0, 0);
+            let step = (s / 8).max(1);
+            for qy in (qy0.saturating_sub(radius)..=(qy0 + radius).min(vh - 1)).step_by(step) {
+                for qx in (qx0.saturating_sub(radius)..=(qx0 + radius).min(vw - 1)).step_by(step) {
+                    for o in 0..8 {
+                        let mut cost = 0f32;
+                        for v in (0..s).step_by(2) {
+                            for u in (0..s).step_by(2) {
+                                let (du, dv) = orient(o, u, v, s);
+                                let d = edges.at(px + u, py + v, 0) - edges.at(qx + du, qy + dv, 0);
+                                cost += d * d;
+                            }
+                            if cost >= best.0 {
+                                break;
+                            }
+                        }
+                        if cost < best.0 {
+                            best = (cost, qx, qy, o);
+                        }
+                    }
+                }
+            }
+            let (_, qx, qy, o) = best;
+            for v in 0..s {
+                for u in 0..s {
+                    let (du, dv) = orient(o, u, v, s);
+                    let (sx, sy) = (qx + du, qy + dv);
+                    let dq = delta_in[sy * w + sx] * window[v * s + u];
+                    let src = input.pixel(sx, sy).to_vec();
+                    let dst = template.pixel_mut(px + u, py + v);
+                    for c in 0..n {
+                        dst[c] = dst[c] * (1.0 - dq) + src[c] * dq;
+                    }
+                }
+            }
+        }
+        let rebuilt = rebuild(input, &template, None, Engine::Optimize, &params.rebuild, rng::derive(seed, &[0xf1, k as u64]))?;
+        current = settle(&rebuilt, &template, &current, intact)?;
+        frames.push(Frame { t, image: current.clone() });
+        progress(k);
+    }
+    Ok(frames)
+}
+
+fn colour_distance_px(a: &[f32], b: &[f32]) -> f32 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f32>().sqrt()
+}
+
+/// Mean of a one-channel image over every s x s placement, row-major over
+/// (w - s + 1) x (h - s + 1).
+fn box_means(img: &Image, s: usize) -> Vec<f32> {
+    let (w, h) = img.size();
+    let mut sat = vec![0f64; (w + 1) * (h + 1)];
+    for y in 0..h {
+        let mut row = 0f64;
+        for x in 0..w {
+            row += img.at(x, y, 0) as f64;
+            sat[(y + 1) * (w + 1) + x + 1] = sat[y * (w + 1) + x + 1] + row;
+        }
+    }
+    let (vw, vh) = (w - s + 1, h - s + 1);
+    let area = (s * s) as f64;
+    (0..vw * vh)
+        .map(|i| {
+            let (x, y) = (i % vw, i / vw);
+            let at = |xx: usize, yy: usize| sat[yy * (w + 1) + xx];
+            ((at(x + s, y + s) - at(x + s, y) - at(x, y + s) + at(x, y)) / area) as f32
+        })
+        .collect()
+}
+
+/// A random index among the `k` values nearest `want` (ties by index).
+fn nearest_age(values: &[f32], want: f32, k: usize, g: &mut impl Rng) -> usize {
+    // Subsample for speed: every placement is a candidate, but a strided
+    // scan keeps each step O(placements / 16).
+    let stride = 4;
+    let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
+    let offset = g.gen_range(0..stride);
+    for i in (offset..values.len()).step_by(stride) {
+        let d = (values[i] - want).abs();
+        if best.len() < k || d < best[best.len() - 1].0 {
+            let at = best.partition_point(|e| e.0 <= d);
+            best.insert(at, (d, i));
+            best.truncate(k);
+        }
+    }
+    best[g.gen_range(0..best.len())].1
+}
+
+fn check_sizes(input: &Image, intact: &Image, age: &Image) -> Result<()> {
+    if intact.size() != input.size() || age.size() != input.size() {
+        return Err(Error::invalid(format!(
+            "input ({}x{}), intact texture ({}x{}) and age map ({}x{}) must have one size",
+            input.width(),
+            input.height(),
+            intact.width(),
+            intact.height(),
+            age.width(),
+            age.height()
+        )));
+    }
+    if intact.channels() != input.channels() {
+        return Err(Error::invalid("the intact texture and the input have different channel counts"));
+    }
+    Ok(())
+}
