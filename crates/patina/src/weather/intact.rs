@@ -13,6 +13,7 @@
 //!    quilting texture transfer ([`Engine::Quilt`]); the default is guided
 //!    optimization started from such a transfer (see [`IntactParams::engine`]).
 
+use super::layers::Layers;
 use super::rebuild::{rebuild, Engine, RebuildParams};
 use super::tiles::{self, Lattice};
 use crate::error::{Error, Result};
@@ -55,13 +56,23 @@ pub struct Intact {
     pub allowed: Mask,
 }
 
-/// Pixels whose age is below the (1 - discard) quantile.
-pub fn allowed_sources(age: &Image, discard: f32) -> Mask {
-    let mut sorted = age.data().to_vec();
-    sorted.sort_by(f32::total_cmp);
-    let k = (((1.0 - discard) * sorted.len() as f32) as usize).min(sorted.len() - 1);
-    let cut = sorted[k];
-    Mask::from_fn(age.width(), age.height(), |x, y| age.at(x, y, 0) < cut || (discard <= 0.0))
+/// Pixels whose age is below the (1 - discard) quantile (of their own
+/// layer, with layers).
+pub fn allowed_sources(age: &Image, discard: f32, layers: Option<&Layers>) -> Mask {
+    let label = |i: usize| layers.map_or(0, |l| l.labels[i] as usize);
+    let count = layers.map_or(1, |l| l.count);
+    let cuts: Vec<f32> = (0..count)
+        .map(|l| {
+            let mut sorted: Vec<f32> = age.data().iter().enumerate().filter(|(i, _)| label(*i) == l).map(|(_, v)| *v).collect();
+            sorted.sort_by(f32::total_cmp);
+            if sorted.is_empty() {
+                return f32::INFINITY;
+            }
+            sorted[(((1.0 - discard) * sorted.len() as f32) as usize).min(sorted.len() - 1)]
+        })
+        .collect();
+    let w = age.width();
+    Mask::from_fn(w, age.height(), |x, y| discard <= 0.0 || age.at(x, y, 0) < cuts[label(y * w + x)])
 }
 
 /// Whether the median tile explains the allowed (intact) pixels: their
@@ -85,7 +96,7 @@ fn explains(img: &Image, median: &Image, allowed: &Mask) -> bool {
 }
 
 /// The intact texture of `img` given its age map.
-pub fn intact(img: &Image, age: &Image, params: &IntactParams, seed: u64) -> Result<Intact> {
+pub fn intact(img: &Image, age: &Image, layers: Option<&Layers>, params: &IntactParams, seed: u64) -> Result<Intact> {
     if age.size() != img.size() || age.channels() != 1 {
         return Err(Error::invalid(format!(
             "the age map ({}x{}, {} channels) must be one channel the input's size ({}x{})",
@@ -99,7 +110,7 @@ pub fn intact(img: &Image, age: &Image, params: &IntactParams, seed: u64) -> Res
     if !(0.0..0.95).contains(&params.discard) {
         return Err(Error::invalid("the discarded fraction must be in [0, 0.95)"));
     }
-    let allowed = allowed_sources(age, params.discard);
+    let allowed = allowed_sources(age, params.discard, layers);
     let mut lattice = if params.detect_tiles { tiles::detect(img) } else { None };
     let median = lattice.map(|l| tiles::median_tile(img, &l, Some(&allowed)));
     if let Some(m) = &median {

@@ -13,9 +13,11 @@
 pub mod age;
 pub mod features;
 pub mod intact;
+pub mod layers;
 pub mod rebuild;
 pub mod sequence;
 pub mod tiles;
+pub mod transfer;
 
 pub use age::{age_map, AgeMap, AgeParams};
 pub use features::Features;
@@ -33,6 +35,8 @@ pub struct WeatherParams {
     pub age: AgeParams,
     pub intact: IntactParams,
     pub sequence: SequenceParams,
+    /// Colour layers aged separately (k-means in Lab); 0 or 1 = one layer.
+    pub layers: usize,
 }
 
 /// Inputs that replace automatic steps.
@@ -42,6 +46,8 @@ pub struct Overrides<'a> {
     pub age: Option<&'a Image>,
     /// A user-provided intact texture.
     pub intact: Option<&'a Image>,
+    /// A user label image for the layers (one grey level per layer).
+    pub labels: Option<&'a Image>,
 }
 
 /// Stages of [`weather`], reported to the progress callback.
@@ -65,6 +71,8 @@ pub struct Weathered {
     pub intact: Image,
     /// The tile grid, when one was found.
     pub lattice: Option<tiles::Lattice>,
+    /// The colour layers, when asked for.
+    pub layers: Option<layers::Layers>,
     /// Every frame in time order: intact (t = 0), past, input (t = 1), future.
     pub frames: Vec<Frame>,
 }
@@ -89,6 +97,18 @@ pub fn weather(input: &Image, params: &WeatherParams, overrides: Overrides, seed
             (a.map, Some((a.grid, a.patch, a.k)))
         }
     };
+    let layers = match overrides.labels {
+        Some(l) if l.size() != input.size() => {
+            return Err(Error::invalid(format!("the label image is {}x{} but the input is {}x{}", l.width(), l.height(), input.width(), input.height())))
+        }
+        Some(l) => Some(layers::Layers::from_label_image(l)?),
+        None if params.layers > 1 => Some(layers::Layers::kmeans(input, params.layers, crate::rng::derive(seed, &[4]))?),
+        None => None,
+    };
+    let age = match &layers {
+        Some(l) => l.normalise_age(&age),
+        None => age,
+    };
     progress(Stage::AgeMap);
     let (intact_img, lattice) = match overrides.intact {
         Some(i) => {
@@ -106,7 +126,7 @@ pub fn weather(input: &Image, params: &WeatherParams, overrides: Overrides, seed
             (i.clone(), None)
         }
         None => {
-            let r = intact(input, &age, &params.intact, crate::rng::derive(seed, &[1]))?;
+            let r = intact(input, &age, layers.as_ref(), &params.intact, crate::rng::derive(seed, &[1]))?;
             (r.image, r.lattice)
         }
     };
@@ -125,5 +145,5 @@ pub fn weather(input: &Image, params: &WeatherParams, overrides: Overrides, seed
     frames.extend(past);
     frames.push(Frame { t: 1.0, image: input.clone() });
     frames.extend(future);
-    Ok(Weathered { age, age_grid, intact: intact_img, lattice, frames })
+    Ok(Weathered { age, age_grid, intact: intact_img, lattice, layers, frames })
 }

@@ -70,7 +70,7 @@ const CHANGED: f32 = 0.02;
 
 /// `rebuilt` where the template moved away from `previous`, `previous`
 /// elsewhere, and per pixel the one farther from `intact`.
-fn settle(rebuilt: &Image, template: &Image, previous: &Image, intact: &Image) -> Result<Image> {
+pub(crate) fn settle(rebuilt: &Image, template: &Image, previous: &Image, intact: &Image) -> Result<Image> {
     let moved = colour_distance(template, previous)?;
     let moved = Image::from_data(template.width(), template.height(), 1, moved)?;
     // Feather the changed region over a couple of pixels.
