@@ -60,5 +60,27 @@ pub fn run(args: Args) -> Result<()> {
     });
     manifest.write(&args.out.join("manifest.json"))?;
     eprintln!("patina demo: wrote {} images and manifest.json to {}", files.len(), args.out.display());
-    Ok(())
+    weather_demo(&args)
+}
+
+/// The flagship: glazed tiles with rust stains, aged back to intact and
+/// forward to more rust, written to OUT/weather/ like `patina weather`.
+fn weather_demo(args: &Args) -> Result<()> {
+    let dir = args.out.join("weather");
+    let clean = samples::tiles(192, 192, args.seed);
+    let (input, _) = samples::weather(&clean, samples::Weathering::Rust, 0.1, args.seed ^ 0x5eed);
+    std::fs::create_dir_all(&dir).map_err(|source| Error::Write { path: dir.clone(), source })?;
+    let input_path = dir.join("input.png");
+    save_png(&input, &input_path, BitDepth::Eight)?;
+    crate::weather::run(crate::weather::Args {
+        input: input_path,
+        out: dir,
+        past: 3,
+        future: 3,
+        span: 1.0,
+        steps: None,
+        age_map: None,
+        intact: None,
+        method: crate::weather::MethodArgs { seed: args.seed, ..Default::default() },
+    })
 }

@@ -5,6 +5,7 @@ mod demo;
 mod output;
 mod progress;
 mod synth;
+mod weather;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -22,6 +23,14 @@ struct Cli {
 enum Command {
     /// Synthesize a texture from an exemplar (enlargement or guided synthesis).
     Synth(synth::Args),
+    /// Age a weathered texture forwards and backwards in time (Bellini et al. 2016): age map, intact texture, frames, GIF.
+    Weather(weather::Args),
+    /// Write the age map of a weathered texture (white = weathered).
+    AgeMap(weather::SingleArgs),
+    /// Write the intact (un-weathered) texture of a weathered texture.
+    Intact(weather::SingleArgs),
+    /// Carry one texture's weathering onto another (Bellini et al. 2016, section 7).
+    WeatherTransfer(weather::TransferArgs),
     /// Run patina on built-in procedural samples, writing into ./patina-demo/.
     Demo(demo::Args),
 }
@@ -44,6 +53,10 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Synth(a) => synth::run(a),
+        Command::Weather(a) => weather::run(a),
+        Command::AgeMap(a) => weather::run_age_map(a),
+        Command::Intact(a) => weather::run_intact(a),
+        Command::WeatherTransfer(a) => weather::run_transfer(a),
         Command::Demo(a) => demo::run(a),
     };
     match result {

@@ -17,8 +17,18 @@ pub struct Manifest {
     pub params: Value,
     pub seed: u64,
     pub outputs: Vec<PathBuf>,
+    /// Sequences: every frame with its time value.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub frames: Vec<FrameEntry>,
     pub metrics: BTreeMap<String, Value>,
     pub timings_ms: BTreeMap<String, f64>,
+}
+
+/// One frame of a sequence in the manifest.
+#[derive(Serialize)]
+pub struct FrameEntry {
+    pub t: f32,
+    pub path: PathBuf,
 }
 
 #[derive(Serialize)]
@@ -36,6 +46,7 @@ impl Manifest {
             params: Value::Null,
             seed,
             outputs: Vec::new(),
+            frames: Vec::new(),
             metrics: BTreeMap::new(),
             timings_ms: BTreeMap::new(),
         }

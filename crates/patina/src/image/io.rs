@@ -193,6 +193,42 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut Vec<u8>) -> Result<()>) 
     Ok(())
 }
 
+/// Save `frames` (one size; grey, RGB or with alpha, values in [0, 1]) as
+/// an animated GIF that loops forever, each frame shown `delay_ms`.
+/// Colours are quantised per frame (NeuQuant), as GIF allows 256.
+pub fn save_gif(frames: &[&Image], path: impl AsRef<Path>, delay_ms: u32) -> Result<()> {
+    use image::codecs::gif::{GifEncoder, Repeat};
+    let path = path.as_ref();
+    let first = frames.first().ok_or_else(|| Error::invalid("an animation needs at least one frame"))?;
+    if frames.iter().any(|f| f.size() != first.size()) {
+        return Err(Error::invalid("animation frames differ in size"));
+    }
+    write_atomic(path, |buf| {
+        let mut enc = GifEncoder::new_with_speed(&mut *buf, 10);
+        enc.set_repeat(Repeat::Infinite).map_err(|e| Error::Internal(format!("gif: {e}")))?;
+        for f in frames {
+            let n = f.channels();
+            let rgba: Vec<u8> = f
+                .data()
+                .chunks_exact(n)
+                .flat_map(|p| {
+                    let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+                    match n {
+                        1 => [q(p[0]), q(p[0]), q(p[0]), 255],
+                        2 => [q(p[0]), q(p[0]), q(p[0]), q(p[1])],
+                        3 => [q(p[0]), q(p[1]), q(p[2]), 255],
+                        _ => [q(p[0]), q(p[1]), q(p[2]), q(p[3])],
+                    }
+                })
+                .collect();
+            let img = image::RgbaImage::from_raw(f.width() as u32, f.height() as u32, rgba).expect("sizes match");
+            let frame = image::Frame::from_parts(img, 0, 0, image::Delay::from_numer_denom_ms(delay_ms, 1));
+            enc.encode_frame(frame).map_err(|e| Error::Internal(format!("gif: {e}")))?;
+        }
+        Ok(())
+    })
+}
+
 /// Save as PNG. 1, 2, 3 or 4 channels (gray, gray+alpha, RGB, RGBA); values
 /// are clamped to [0, 1].
 pub fn save_png(img: &Image, path: impl AsRef<Path>, depth: BitDepth) -> Result<()> {

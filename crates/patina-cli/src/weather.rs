@@ -1,0 +1,357 @@
+//! `patina weather`, `patina age-map`, `patina intact` and
+//! `patina weather-transfer`: texture weathering from a single image
+//! (Bellini et al. 2016).
+
+use crate::output::{check_outputs, manifest_path, FrameEntry, Manifest, Stopwatch};
+use crate::progress::with_bar;
+use patina::image::io::{self, save_gif, save_png, BitDepth};
+use patina::image::Image;
+use patina::weather::{self, age_map, intact, layers::Layers, transfer, Overrides, Stage, WeatherParams};
+use patina::{Error, Result};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// How long each frame of sequence.gif is shown.
+const GIF_DELAY_MS: u32 = 400;
+
+/// Flags of the age map and the intact texture, shared by the subcommands.
+#[derive(clap::Args, Clone)]
+pub struct MethodArgs {
+    /// Age map grid: N x N source patches (paper: 20; lowered so patches keep at least 8 px).
+    #[arg(long, default_value_t = 20)]
+    pub grid: usize,
+    /// Share of the other grid cells averaged into a patch's age (K = share x (N^2 - 1)); 0 uses the paper's K = 10.
+    #[arg(long, default_value_t = 0.4)]
+    pub k_fraction: f32,
+    /// Compare luminance only, as the paper does (default: CIE Lab colour).
+    #[arg(long)]
+    pub luminance_only: bool,
+    /// Weight of the per-pixel detail term of the age map, which finds thin cracks (0 = paper's grid age only).
+    #[arg(long, default_value_t = 1.0)]
+    pub detail: f32,
+    /// Share of the most-aged pixels the intact texture never copies from (paper: 0.2).
+    #[arg(long, default_value_t = 0.2)]
+    pub discard: f32,
+    /// Do not look for a tile grid: treat the texture as stochastic.
+    #[arg(long)]
+    pub no_tiles: bool,
+    /// Colour layers aged separately (k-means in Lab; 0 or 1 = one layer).
+    #[arg(long, default_value_t = 0)]
+    pub layers: usize,
+    /// Label image for the layers (one grey level per layer; overrides --layers).
+    #[arg(long)]
+    pub labels: Option<PathBuf>,
+    /// Random seed: the same inputs and seed give the same bytes.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+impl Default for MethodArgs {
+    /// The same values as the flags' defaults.
+    fn default() -> Self {
+        MethodArgs { grid: 20, k_fraction: 0.4, luminance_only: false, detail: 1.0, discard: 0.2, no_tiles: false, layers: 0, labels: None, seed: 0 }
+    }
+}
+
+impl MethodArgs {
+    fn params(&self) -> WeatherParams {
+        let mut p = WeatherParams::default();
+        p.age.grid = self.grid;
+        p.age.k_fraction = (self.k_fraction > 0.0).then_some(self.k_fraction);
+        p.age.colour = !self.luminance_only;
+        p.age.detail = self.detail;
+        p.intact.discard = self.discard;
+        p.intact.detect_tiles = !self.no_tiles;
+        p.layers = self.layers;
+        p
+    }
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The weathered texture: PNG, JPEG or EXR.
+    pub input: PathBuf,
+    /// Output folder (created if missing): age_map.png, intact.png, frames/NNN.png, sequence.gif, manifest.json.
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Frames between the intact texture (t = 0) and the input (t = 1).
+    #[arg(long, default_value_t = 3)]
+    pub past: usize,
+    /// Frames after the input, evenly spaced up to t = 1 + --span.
+    #[arg(long, default_value_t = 3)]
+    pub future: usize,
+    /// Time of the last future frame minus 1.
+    #[arg(long, default_value_t = 1.0)]
+    pub span: f32,
+    /// Patch blends per future frame [default: half the age map's grid cells, N^2 / 2].
+    #[arg(long)]
+    pub steps: Option<usize>,
+    /// A user age map (grey, white = weathered) replacing the automatic one.
+    #[arg(long)]
+    pub age_map: Option<PathBuf>,
+    /// A user intact texture replacing the automatic one.
+    #[arg(long)]
+    pub intact: Option<PathBuf>,
+    #[command(flatten)]
+    pub method: MethodArgs,
+}
+
+#[derive(clap::Args)]
+pub struct SingleArgs {
+    /// The weathered texture: PNG, JPEG or EXR.
+    pub input: PathBuf,
+    /// Output image (.png); OUT.manifest.json is written beside it.
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// A user age map to use instead of the automatic one (intact only).
+    #[arg(long)]
+    pub age_map: Option<PathBuf>,
+    #[command(flatten)]
+    pub method: MethodArgs,
+}
+
+#[derive(clap::Args)]
+pub struct TransferArgs {
+    /// The weathered texture whose weathering is carried over.
+    #[arg(long)]
+    pub source: PathBuf,
+    /// The clean texture that takes it on (its size is the output size).
+    #[arg(long)]
+    pub target: PathBuf,
+    /// Output folder: frames/NNN.png, sequence.gif, manifest.json.
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Frames, at t = k / frames for k = 1..frames (t = 1: all of the source's weathering).
+    #[arg(long, default_value_t = 4)]
+    pub frames: usize,
+    #[command(flatten)]
+    pub method: MethodArgs,
+}
+
+fn load_labels(method: &MethodArgs) -> Result<Option<Image>> {
+    method.labels.as_ref().map(io::load).transpose()
+}
+
+fn mkdir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|source| Error::Write { path: dir.into(), source })
+}
+
+/// Write a sequence: frames/NNN.png and sequence.gif under `dir`.
+fn write_sequence(dir: &Path, frames: &[weather::Frame], manifest: &mut Manifest) -> Result<()> {
+    let frames_dir = dir.join("frames");
+    mkdir(&frames_dir)?;
+    for (i, f) in frames.iter().enumerate() {
+        let rel = PathBuf::from("frames").join(format!("{i:03}.png"));
+        save_png(&f.image, dir.join(&rel), BitDepth::Eight)?;
+        manifest.frames.push(FrameEntry { t: f.t, path: rel });
+    }
+    let images: Vec<&Image> = frames.iter().map(|f| &f.image).collect();
+    save_gif(&images, dir.join("sequence.gif"), GIF_DELAY_MS)?;
+    manifest.outputs.push("sequence.gif".into());
+    Ok(())
+}
+
+/// Paths inside `dir` that a sequence run writes.
+fn sequence_outputs(dir: &Path, frames: usize, extra: &[&str]) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = extra.iter().map(|n| dir.join(n)).collect();
+    v.extend((0..frames).map(|i| dir.join("frames").join(format!("{i:03}.png"))));
+    v.push(dir.join("sequence.gif"));
+    v.push(dir.join("manifest.json"));
+    v
+}
+
+fn refuse_overwrite(outputs: &[PathBuf], inputs: &[&Path]) -> Result<()> {
+    let outs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).filter(|p| p.parent().is_some_and(Path::is_dir)).collect();
+    check_outputs(&outs, inputs)
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let m = &args.method;
+    let mut manifest = Manifest::new("weather", m.seed);
+    let mut inputs: Vec<&Path> = vec![&args.input];
+    inputs.extend(args.age_map.as_deref());
+    inputs.extend(args.intact.as_deref());
+    inputs.extend(m.labels.as_deref());
+    let frame_count = args.past + args.future + 2;
+    refuse_overwrite(&sequence_outputs(&args.out, frame_count, &["age_map.png", "intact.png", "layers.png"]), &inputs)?;
+    if !(args.span > 0.0) {
+        return Err(Error::invalid(format!("--span must be positive, got {}", args.span)));
+    }
+    let input = io::load(&args.input)?;
+    let user_age = args.age_map.as_ref().map(io::load).transpose()?;
+    let user_intact = args.intact.as_ref().map(io::load).transpose()?;
+    let labels = load_labels(m)?;
+    manifest.timings_ms.insert("load".into(), clock.lap());
+
+    let mut params = m.params();
+    params.sequence.past = args.past;
+    params.sequence.future = args.future;
+    params.sequence.future_span = args.span;
+    params.sequence.steps = args.steps;
+    let overrides = Overrides { age: user_age.as_ref(), intact: user_intact.as_ref(), labels: labels.as_ref() };
+    let total = (2 + args.past + args.future) as u64;
+    let result = with_bar("weather", |report| {
+        weather::weather(&input, &params, overrides, m.seed, &|stage| {
+            let done = match stage {
+                Stage::AgeMap => 1,
+                Stage::Intact => 2,
+                Stage::Past(k, _) => 2 + k,
+                Stage::Future(k, _) => 2 + args.past + k,
+            };
+            report(done as u64, total);
+        })
+    })?;
+    manifest.timings_ms.insert("weather".into(), clock.lap());
+
+    mkdir(&args.out)?;
+    save_png(&result.age, args.out.join("age_map.png"), BitDepth::Eight)?;
+    save_png(&result.intact, args.out.join("intact.png"), BitDepth::Eight)?;
+    manifest.outputs.extend(["age_map.png".into(), "intact.png".into()]);
+    if let Some(l) = &result.layers {
+        save_png(&l.to_image(), args.out.join("layers.png"), BitDepth::Eight)?;
+        manifest.outputs.push("layers.png".into());
+    }
+    write_sequence(&args.out, &result.frames, &mut manifest)?;
+    manifest.timings_ms.insert("save".into(), clock.lap());
+
+    let mut p = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
+    if let Some((n, patch, k)) = result.age_grid {
+        p["age"]["grid_used"] = json!(n);
+        p["age"]["patch_used"] = json!([patch.0, patch.1]);
+        p["age"]["k_used"] = json!(k);
+    }
+    p["tiles"] = json!(result.lattice);
+    p["layers_used"] = json!(result.layers.as_ref().map(|l| l.count));
+    manifest.params = p;
+    manifest.metrics.insert("weathered_area".into(), json!(weathered_areas(&result.frames, &result.intact)?));
+    manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
+    manifest.write(&args.out.join("manifest.json"))?;
+    eprintln!("patina weather: wrote {} frames to {}", result.frames.len(), args.out.display());
+    Ok(())
+}
+
+/// Per frame, the share of pixels whose colour differs from the intact
+/// texture by more than 0.1.
+fn weathered_areas(frames: &[weather::Frame], intact: &Image) -> Result<Vec<f32>> {
+    frames
+        .iter()
+        .map(|f| {
+            let d = weather::rebuild::colour_distance(&f.image, intact)?;
+            Ok(d.iter().filter(|&&v| v > 0.1).count() as f32 / d.len() as f32)
+        })
+        .collect()
+}
+
+fn single_setup(args: &SingleArgs, command: &str) -> Result<(Manifest, PathBuf, Image, Option<Layers>)> {
+    let manifest_file = manifest_path(&args.out);
+    let mut inputs: Vec<&Path> = vec![&args.input];
+    inputs.extend(args.age_map.as_deref());
+    inputs.extend(args.method.labels.as_deref());
+    check_outputs(&[&args.out, &manifest_file], &inputs)?;
+    io::output_format(&args.out, 3)?;
+    let input = io::load(&args.input)?;
+    let layers = match load_labels(&args.method)? {
+        Some(l) if l.size() != input.size() => return Err(Error::invalid("the label image and the input differ in size")),
+        Some(l) => Some(Layers::from_label_image(&l)?),
+        None if args.method.layers > 1 => Some(Layers::kmeans(&input, args.method.layers, args.method.seed)?),
+        None => None,
+    };
+    let mut manifest = Manifest::new(command, args.method.seed);
+    manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
+    manifest.outputs = vec![args.out.clone()];
+    Ok((manifest, manifest_file, input, layers))
+}
+
+/// `patina age-map`.
+pub fn run_age_map(args: SingleArgs) -> Result<()> {
+    if args.age_map.is_some() {
+        return Err(Error::invalid("--age-map is an input of 'patina intact', not of 'patina age-map'"));
+    }
+    let mut clock = Stopwatch::start();
+    let (mut manifest, manifest_file, input, layers) = single_setup(&args, "age-map")?;
+    let params = args.method.params();
+    let a = age_map(&input, &params.age)?;
+    let map = match &layers {
+        Some(l) => l.normalise_age(&a.map),
+        None => a.map,
+    };
+    manifest.timings_ms.insert("age_map".into(), clock.lap());
+    save_png(&map, &args.out, BitDepth::Eight)?;
+    let mut p = serde_json::to_value(&params.age).map_err(|e| Error::Internal(e.to_string()))?;
+    p["grid_used"] = json!(a.grid);
+    p["patch_used"] = json!([a.patch.0, a.patch.1]);
+    p["k_used"] = json!(a.k);
+    p["layers_used"] = json!(layers.as_ref().map(|l| l.count));
+    manifest.params = p;
+    manifest.write(&manifest_file)
+}
+
+/// `patina intact`.
+pub fn run_intact(args: SingleArgs) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let (mut manifest, manifest_file, input, layers) = single_setup(&args, "intact")?;
+    let params = args.method.params();
+    let age = match &args.age_map {
+        Some(p) => patina::image::color::luminance(&io::load(p)?).map(|v| v.clamp(0.0, 1.0)),
+        None => {
+            let a = age_map(&input, &params.age)?;
+            match &layers {
+                Some(l) => l.normalise_age(&a.map),
+                None => a.map,
+            }
+        }
+    };
+    let result = with_bar("intact", |_| intact(&input, &age, layers.as_ref(), &params.intact, args.method.seed))?;
+    manifest.timings_ms.insert("intact".into(), clock.lap());
+    save_png(&result.image, &args.out, BitDepth::Eight)?;
+    let mut p = serde_json::to_value(&params.intact).map_err(|e| Error::Internal(e.to_string()))?;
+    p["age"] = serde_json::to_value(&params.age).map_err(|e| Error::Internal(e.to_string()))?;
+    p["tiles"] = json!(result.lattice);
+    manifest.params = p;
+    manifest.write(&manifest_file)
+}
+
+/// `patina weather-transfer`.
+pub fn run_transfer(args: TransferArgs) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let m = &args.method;
+    let mut manifest = Manifest::new("weather-transfer", m.seed);
+    let inputs: Vec<&Path> = vec![&args.source, &args.target];
+    refuse_overwrite(&sequence_outputs(&args.out, args.frames + 1, &[]), &inputs)?;
+    if args.frames == 0 {
+        return Err(Error::invalid("--frames must be at least 1"));
+    }
+    let source = io::load(&args.source)?;
+    let target = io::load(&args.target)?;
+    if source.channels() != target.channels() {
+        return Err(Error::invalid(format!(
+            "{} has {} channels but {} has {}",
+            args.source.display(),
+            source.channels(),
+            args.target.display(),
+            target.channels()
+        )));
+    }
+    manifest.timings_ms.insert("load".into(), clock.lap());
+    let params = m.params();
+    let times: Vec<f32> = (1..=args.frames).map(|k| k as f32 / args.frames as f32).collect();
+    let frames = with_bar("transfer", |report| -> Result<_> {
+        let total = (args.frames + 2) as u64;
+        let a = age_map(&source, &params.age)?;
+        report(1, total);
+        let i = intact(&source, &a.map, None, &params.intact, m.seed)?;
+        report(2, total);
+        transfer::transfer(&source, &a.map, &i.image, &target, &times, &params.intact.rebuild, m.seed, &|k| report(2 + k as u64, total))
+    })?;
+    manifest.timings_ms.insert("transfer".into(), clock.lap());
+    mkdir(&args.out)?;
+    let mut all = vec![weather::Frame { t: 0.0, image: target.clone() }];
+    all.extend(frames);
+    write_sequence(&args.out, &all, &mut manifest)?;
+    manifest.params = json!({ "frames": args.frames, "age": params.age, "intact": params.intact });
+    manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
+    manifest.write(&args.out.join("manifest.json"))?;
+    eprintln!("patina weather-transfer: wrote {} frames to {}", all.len(), args.out.display());
+    Ok(())
+}
