@@ -160,7 +160,7 @@ impl Synthesis<'_> {
         let r = params.patch / 2;
         let src = self.source;
         let min_side = src.width().min(src.height()).min(w).min(h);
-        let quilt_start = params.init == Init::Quilt && self.fill.is_none();
+        let quilt_start = params.init == Init::Quilt && self.fill.is_none() && self.start.is_none();
         let floor = if quilt_start { MIN_COARSE_SIDE_QUILT.max(4 * params.patch) } else { 4 * params.patch };
         let levels = params.levels.unwrap_or_else(|| auto_levels(min_side, floor)).max(1);
         if (min_side >> (levels - 1)) < params.patch {
@@ -172,6 +172,7 @@ impl Synthesis<'_> {
         let tguide_pyr = self.target_guide.map(|g| gaussian_pyramid(g, levels));
         let allowed_pyr = self.source_mask.map(|m| pyramid(m.clone(), levels, |m| mask_down(m, false)));
         let fill_pyr = self.fill.map(|(img, _)| gaussian_pyramid(img, levels));
+        let start_pyr = self.start.map(|img| gaussian_pyramid(img, levels));
         let hole_pyr = self.fill.map(|(_, hole)| pyramid(hole.clone(), levels, |m| mask_down(m, true)));
         let mut sizes = vec![(w, h)];
         while sizes.len() < levels {
@@ -215,11 +216,18 @@ impl Synthesis<'_> {
             };
             let hole = hole_pyr.as_ref().map(|p| &p[level]);
             let search = hole.map(|m| m.dilate(r));
-            target = match &fill_pyr {
-                Some(p) => p[level].clone(),
-                None => Image::new(tw, th, style.channels()),
-            };
-            vote(&field, style, r, &mut target, hole, params.vote);
+            let coarsest = level == levels - 1;
+            match (&start_pyr, coarsest) {
+                // Start from the given image: search before the first vote.
+                (Some(p), true) => target = p[level].clone(),
+                _ => {
+                    target = match &fill_pyr {
+                        Some(p) => p[level].clone(),
+                        None => Image::new(tw, th, style.channels()),
+                    };
+                    vote(&field, style, r, &mut target, hole, params.vote);
+                }
+            }
             let pm = PatchMatch {
                 radius: r,
                 iterations: params.patchmatch_iters,

@@ -26,6 +26,7 @@ pub struct Synthesis<'a> {
     pub(crate) guide_weight: f32,
     pub(crate) source_mask: Option<&'a Mask>,
     pub(crate) fill: Option<(&'a Image, &'a Mask)>,
+    pub(crate) start: Option<&'a Image>,
     pub(crate) metric: Option<PatchMetric>,
     pub(crate) seed: u64,
     pub(crate) progress: Option<Progress<'a>>,
@@ -42,6 +43,7 @@ impl<'a> Synthesis<'a> {
             guide_weight: 1.0,
             source_mask: None,
             fill: None,
+            start: None,
             metric: None,
             seed: 0,
             progress: None,
@@ -69,6 +71,13 @@ impl<'a> Synthesis<'a> {
     /// Fill (inpaint) the pixels of `hole` in `image`, keeping the rest.
     pub fn fill(mut self, image: &'a Image, hole: &'a Mask) -> Self {
         self.fill = Some((image, hole));
+        self
+    }
+    /// Texture optimization starts from this image (the output's size and
+    /// the source's channels) instead of random or quilted patches: the
+    /// result is the image remade from source patches (Wexler et al.).
+    pub fn start_from(mut self, image: &'a Image) -> Self {
+        self.start = Some(image);
         self
     }
     /// Appearance metric over the source's channels (default: mean SSD).
@@ -139,6 +148,17 @@ impl<'a> Synthesis<'a> {
             }
             if img.channels() != src.channels() {
                 return Err(Error::invalid("the image to fill and the exemplar have different channel counts"));
+            }
+        }
+        if let Some(img) = self.start {
+            if img.size() != size || img.channels() != src.channels() {
+                return Err(Error::invalid(format!(
+                    "the starting image is {}x{} with {} channels; the output is {w}x{h} with {}",
+                    img.width(),
+                    img.height(),
+                    img.channels(),
+                    src.channels()
+                )));
             }
         }
         if let Some(m) = &self.metric {

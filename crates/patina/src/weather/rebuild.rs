@@ -9,8 +9,8 @@
 //! - [`Engine::Quilt`]: image-quilting texture transfer (Efros & Freeman),
 //!   as the paper does for the intact texture. One FFT per block.
 //! - [`Engine::Optimize`]: guided texture optimization (PatchMatch + vote
-//!   over a pyramid, starting from a quilting transfer at the coarsest
-//!   level): smoother joins and 2-3x faster at 512 px; the default.
+//!   over two pyramid levels) started from the template itself, as in
+//!   Wexler et al.: smoother joins and 2-3x faster at 512 px; the default.
 //!
 //! The guide compares luminance, colour and gradient direction
 //! ([`Features`]), the distance of eq. (1).
@@ -74,8 +74,13 @@ pub fn rebuild(exemplar: &Image, template: &Image, allowed: Option<&Mask>, engin
             }
         }
         Engine::Optimize => {
-            let op = OptimizeParams { patch: params.patch, ..OptimizeParams::default() };
-            Ok(problem.optimize(&op)?.image)
+            // No uniformity penalty: a template may need some material (rust)
+            // far more often than the exemplar shows it.
+            // Start from the template itself, two pyramid levels: the
+            // template already holds the layout, the optimization only
+            // swaps its blends for real patches.
+            let op = OptimizeParams { patch: params.patch, uniformity: 0.0, levels: Some(2), ..OptimizeParams::default() };
+            Ok(problem.start_from(template).optimize(&op)?.image)
         }
     }
 }
@@ -84,4 +89,13 @@ pub fn rebuild(exemplar: &Image, template: &Image, allowed: Option<&Mask>, engin
 pub fn colour_distance(a: &Image, b: &Image) -> Result<Vec<f32>> {
     let (a, b) = (rgb(a)?, rgb(b)?);
     Ok(a.data().chunks_exact(3).zip(b.data().chunks_exact(3)).map(|(p, q)| p.iter().zip(q).map(|(x, y)| (x - y) * (x - y)).sum::<f32>().sqrt()).collect())
+}
+
+/// The scale that maps a per-pixel weathering amount Delta to [0, 1]: its
+/// 98th percentile rather than its maximum, so a few extreme pixels do not
+/// leave all other weathering half transparent (in eq. 2 and eq. 3).
+pub fn delta_scale(delta: &[f32]) -> f32 {
+    let mut sorted = delta.to_vec();
+    sorted.sort_by(f32::total_cmp);
+    sorted[((sorted.len() - 1) as f32 * 0.98) as usize].max(1e-6)
 }

@@ -21,7 +21,7 @@
 //! texture. Pixels whose template did not change keep the previous frame
 //! exactly (a rebuild is a new synthesis and would otherwise add noise).
 
-use super::rebuild::{colour_distance, rebuild, Engine, RebuildParams};
+use super::rebuild::{colour_distance, delta_scale, rebuild, Engine, RebuildParams};
 use crate::error::{Error, Result};
 use crate::image::filter::{gaussian_blur, gradients};
 use crate::image::Image;
@@ -83,7 +83,14 @@ pub(crate) fn settle(rebuilt: &Image, template: &Image, previous: &Image, intact
         let w = (weight.data()[i] * 2.0).min(1.0);
         if w > 0.0 && d_new[i] > d_old[i] {
             let r = &rebuilt.data()[i * n..(i + 1) * n];
-            px.iter_mut().zip(r).for_each(|(p, q)| *p += w * (q - *p));
+            let blend: Vec<f32> = px.iter().zip(r).map(|(p, q)| p + w * (q - p)).collect();
+            // A partial blend can point elsewhere than the rebuilt pixel:
+            // keep it only when it too is farther from intact.
+            let k = n.min(3);
+            let d_blend = blend[..k].iter().zip(&intact.data()[i * n..i * n + k]).map(|(a, b)| (a - b) * (a - b)).sum::<f32>().sqrt();
+            if d_blend > d_old[i] {
+                px.copy_from_slice(&blend);
+            }
         }
     }
     Ok(out)
@@ -136,8 +143,8 @@ pub fn future(input: &Image, intact: &Image, age: &Image, grid_cells: usize, age
     let steps = params.steps.unwrap_or(grid_cells / 2);
     // Delta of the input, normalised to [0, 1] over the texture.
     let delta_in = colour_distance(input, intact)?;
-    let scale = delta_in.iter().fold(0f32, |a, &b| a.max(b)).max(1e-6);
-    let delta_in: Vec<f32> = delta_in.iter().map(|d| d / scale).collect();
+    let scale = delta_scale(&delta_in);
+    let delta_in: Vec<f32> = delta_in.iter().map(|d| (d / scale).min(1.0)).collect();
     // Smoothed edge map of the intact texture: the structure P and Q must share.
     let edges = gaussian_blur(&gradients(intact).magnitude, 1.5);
     // Mean age of every s x s patch (summed-area table).
@@ -166,7 +173,7 @@ pub fn future(input: &Image, intact: &Image, age: &Image, grid_cells: usize, age
                 for u in 0..s {
                     let i = (py + v) * w + px + u;
                     let d = colour_distance_px(&template.data()[i * n..i * n + n.min(3)], &intact.data()[i * n..i * n + n.min(3)]);
-                    m = m.max(d / scale);
+                    m = m.max((d / scale).min(1.0));
                 }
             }
             let want = (m + params.delta).min(1.0);

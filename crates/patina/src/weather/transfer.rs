@@ -1,7 +1,8 @@
 //! Weathering transfer (Bellini et al. 2016, section 7, eq. 3): the
 //! weathering of a source texture S carried onto a target texture T.
 //!
-//! Delta_S = |S - intact(S)|, normalised to [0, 1]. The template at time
+//! Delta_S = |S - intact(S)|, normalised to [0, 1] (by its 98th
+//! percentile, see [`delta_scale`]). The template at time
 //! t is I_t = T (1 - Delta_S,t) + S Delta_S,t, where Delta_S,t keeps only
 //! the pixels of S already weathered at t (age > 1 - t, as in the
 //! de-weathering sequence), and I_t is rebuilt with patches of T.
@@ -11,7 +12,7 @@
 //! S's weathered patches where the weathering shows). S is resized to T's
 //! size when they differ.
 
-use super::rebuild::{colour_distance, rebuild, Engine, RebuildParams};
+use super::rebuild::{colour_distance, delta_scale, rebuild, Engine, RebuildParams};
 use super::sequence::{settle, Frame};
 use crate::error::{Error, Result};
 use crate::image::resample::{resize, Filter};
@@ -35,7 +36,7 @@ pub fn transfer(source: &Image, source_age: &Image, source_intact: &Image, targe
     let fit = |img: &Image| if img.size() == (w, h) { Ok(img.clone()) } else { resize(img, w, h, Filter::Cubic) };
     let (s, age, s_intact) = (fit(source)?, fit(source_age)?, fit(source_intact)?);
     let delta = colour_distance(&s, &s_intact)?;
-    let top = delta.iter().fold(0f32, |a, &b| a.max(b)).max(1e-6);
+    let top = delta_scale(&delta);
     // The rebuild's exemplar: T and S side by side.
     let n = target.channels();
     let exemplar = Image::from_fn(2 * w, h, n, |x, y, p| p.copy_from_slice(if x < w { target.pixel(x, y) } else { s.pixel(x - w, y) }));
@@ -44,7 +45,7 @@ pub fn transfer(source: &Image, source_age: &Image, source_intact: &Image, targe
     for (k, &t) in times.iter().enumerate() {
         let template = Image::from_fn(w, h, n, |x, y, p| {
             let a = age.at(x, y, 0);
-            let d = if a > 1.0 - t { delta[y * w + x] / top } else { 0.0 };
+            let d = if a > 1.0 - t { (delta[y * w + x] / top).min(1.0) } else { 0.0 };
             for (c, v) in p.iter_mut().enumerate() {
                 *v = target.at(x, y, c) * (1.0 - d) + s.at(x, y, c) * d;
             }

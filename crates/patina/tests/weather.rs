@@ -1,0 +1,202 @@
+//! Texture weathering (Bellini et al. 2016) against ground truth the tests
+//! make: clean procedural textures with weathering injected in a known mask.
+
+use patina::image::Image;
+use patina::metrics::roc_auc;
+use patina::samples::{self, Weathering};
+use patina::weather::rebuild::colour_distance;
+use patina::weather::{self, age_map, intact, layers::Layers, tiles, transfer, AgeParams, IntactParams, Overrides, WeatherParams};
+
+const SIZE: usize = 160;
+const KINDS: [Weathering; 3] = [Weathering::Rust, Weathering::Stain, Weathering::Cracks];
+
+fn clean(base: &str) -> Image {
+    samples::by_name(base, SIZE, SIZE, 3).unwrap()
+}
+
+/// Share of pixels farther than 0.1 (colour distance) from `intact`.
+fn weathered_area(frame: &Image, intact: &Image) -> f32 {
+    let d = colour_distance(frame, intact).unwrap();
+    d.iter().filter(|&&v| v > 0.1).count() as f32 / d.len() as f32
+}
+
+#[test]
+fn the_age_map_finds_injected_weathering_on_regular_and_stochastic_textures() {
+    for base in ["tiles", "gravel"] {
+        for kind in KINDS {
+            let (img, mask) = samples::weather(&clean(base), kind, 0.1, 11);
+            let share = mask.count() as f32 / (SIZE * SIZE) as f32;
+            assert!((0.05..0.2).contains(&share), "{base} {kind:?}: injected area {share}");
+            let age = age_map(&img, &AgeParams::default()).unwrap();
+            let (lo, hi) = age.map.value_range();
+            assert!(lo >= 0.0 && hi <= 1.0 && hi > 0.99, "normalised to [0, 1]: {lo}..{hi}");
+            let auc = roc_auc(age.map.data(), mask.bits());
+            assert!(auc >= 0.85, "{base} with {kind:?}: ROC AUC {auc:.3}");
+        }
+    }
+}
+
+#[test]
+fn the_age_map_of_a_clean_texture_flags_nothing_in_particular() {
+    // Negative control: a random "mask" on a clean texture is not found.
+    let img = clean("gravel");
+    let (_, mask) = samples::weather(&img, Weathering::Rust, 0.1, 11);
+    let age = age_map(&img, &AgeParams::default()).unwrap();
+    let auc = roc_auc(age.map.data(), mask.bits());
+    assert!((0.25..0.75).contains(&auc), "clean texture: AUC {auc:.3} should be near chance");
+}
+
+#[test]
+fn tile_detection_finds_the_period_and_calls_gravel_stochastic() {
+    let p = samples::TILE_PERIOD as f32;
+    for (name, img) in [
+        ("tiles", samples::tiles(SIZE, SIZE, 1)),
+        ("shifted crop", samples::tiles(300, 300, 1).crop(7, 5, 200, 180).unwrap()),
+        ("rusty tiles", samples::weather(&samples::tiles(SIZE, SIZE, 1), Weathering::Rust, 0.1, 3).0),
+    ] {
+        let l = tiles::detect(&img).unwrap_or_else(|| panic!("{name}: no grid found"));
+        let mut periods = [l.a, l.b].map(|v| (v[0].abs(), v[1].abs()));
+        periods.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (vertical, horizontal) = (periods[0], periods[1]);
+        assert!((horizontal.0 - p).abs() <= 1.0 && horizontal.1 <= 1.0, "{name}: {l:?}");
+        assert!((vertical.1 - p).abs() <= 1.0 && vertical.0 <= 1.0, "{name}: {l:?}");
+    }
+    for name in ["gravel", "cobbles", "blotches"] {
+        assert_eq!(tiles::detect(&samples::by_name(name, SIZE, SIZE, 1).unwrap()), None, "{name} is stochastic");
+    }
+}
+
+#[test]
+fn the_intact_texture_drops_the_injected_weathering() {
+    for (base, kind) in [("tiles", Weathering::Rust), ("tiles", Weathering::Cracks), ("gravel", Weathering::Rust), ("gravel", Weathering::Stain)] {
+        let original = clean(base);
+        let (img, mask) = samples::weather(&original, kind, 0.1, 11);
+        let age = age_map(&img, &AgeParams::default()).unwrap();
+        let result = intact(&img, &age.map, None, &IntactParams::default(), 5).unwrap();
+        // The colour signature of the weathering: the shift of the mean
+        // colour over the mask from the clean texture to the weathered one.
+        // The intact texture may keep at most a fifth of that shift. (A mean,
+        // not per pixel: on gravel the intact texture is new gravel, not
+        // the original stones.)
+        let mean = |img: &Image| -> [f32; 3] {
+            let mut m = [0f32; 3];
+            for (p, _) in img.data().chunks_exact(3).zip(mask.bits()).filter(|(_, &b)| b) {
+                (0..3).for_each(|c| m[c] += p[c] / mask.count() as f32);
+            }
+            m
+        };
+        let (clean_mean, weathered_mean, intact_mean) = (mean(&original), mean(&img), mean(&result.image));
+        let shift = |a: [f32; 3], b: [f32; 3]| (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f32>().sqrt();
+        let share = shift(intact_mean, clean_mean) / shift(weathered_mean, clean_mean);
+        assert!(share <= 0.2, "{base} {kind:?}: intact keeps {:.0}% of the weathering's colour shift", 100.0 * share);
+        assert_eq!(result.lattice.is_some(), base == "tiles", "{base}: grid found = {:?}", result.lattice);
+    }
+}
+
+#[test]
+fn sequences_grow_weathering_monotonically_in_both_directions() {
+    let (img, _) = samples::weather(&clean("tiles"), Weathering::Rust, 0.1, 11);
+    let r = weather::weather(&img, &WeatherParams::default(), Overrides::default(), 9, &|_| {}).unwrap();
+    let ts: Vec<f32> = r.frames.iter().map(|f| f.t).collect();
+    assert_eq!(ts.len(), 8);
+    assert!(ts.windows(2).all(|w| w[0] < w[1]), "time order: {ts:?}");
+    assert_eq!((ts[0], ts[4], ts[7]), (0.0, 1.0, 2.0));
+    let areas: Vec<f32> = r.frames.iter().map(|f| weathered_area(&f.image, &r.intact)).collect();
+    assert!(areas[0] == 0.0, "t = 0 is the intact texture");
+    assert!(areas.windows(2).all(|w| w[1] >= w[0]), "weathered area grows with t: {areas:?}");
+    assert!(areas[3] > areas[1], "de-weathering frames differ: {areas:?}");
+    assert!(areas[7] > areas[5] && areas[5] > areas[4], "future frames grow strictly: {areas:?}");
+    assert!(areas[7] >= 1.5 * areas[4], "t = 2 has {:.3} weathered vs {:.3} at t = 1", areas[7], areas[4]);
+    // Per pixel, the distance to intact never falls from frame to frame
+    // (past frames from t = 0, future frames from the input).
+    for w in r.frames[..4].windows(2).chain(r.frames[4..].windows(2)) {
+        let a = colour_distance(&w[0].image, &r.intact).unwrap();
+        let b = colour_distance(&w[1].image, &r.intact).unwrap();
+        let fell = a.iter().zip(&b).filter(|(x, y)| **y < **x - 0.02).count();
+        assert!(fell == 0, "{fell} pixels moved back towards intact between t = {} and t = {}", w[0].t, w[1].t);
+    }
+}
+
+#[test]
+fn future_frames_add_new_weathered_regions_not_only_darker_old_ones() {
+    let (img, mask) = samples::weather(&clean("tiles"), Weathering::Rust, 0.1, 11);
+    let r = weather::weather(&img, &WeatherParams::default(), Overrides::default(), 9, &|_| {}).unwrap();
+    let last = &r.frames.last().unwrap().image;
+    let d = colour_distance(last, &r.intact).unwrap();
+    let far = mask.dilate(4);
+    let new = d.iter().enumerate().filter(|(i, &v)| v > 0.1 && !far.bits()[*i]).count();
+    assert!(new as f32 > 0.02 * (SIZE * SIZE) as f32, "only {new} newly weathered pixels away from the old rust");
+}
+
+#[test]
+fn transfer_carries_rust_onto_a_clean_texture() {
+    let (source, _) = samples::weather(&clean("tiles"), Weathering::Rust, 0.1, 11);
+    let target = samples::gravel(SIZE, SIZE, 2);
+    let age = age_map(&source, &AgeParams::default()).unwrap();
+    let s_intact = intact(&source, &age.map, None, &IntactParams::default(), 1).unwrap();
+    let frames = transfer::transfer(&source, &age.map, &s_intact.image, &target, &[0.5, 1.0], &Default::default(), 3, &|_| {}).unwrap();
+    let rusty = |img: &Image| {
+        img.data().chunks_exact(3).filter(|p| p[0] > 0.45 && p[0] - p[2] > 0.3).count() as f32 / (SIZE * SIZE) as f32
+    };
+    let (before, half, full) = (rusty(&target), rusty(&frames[0].image), rusty(&frames[1].image));
+    assert!(full > before + 0.03 && full >= half, "rust share: target {before:.3}, t = 0.5 {half:.3}, t = 1 {full:.3}");
+    assert!(weathered_area(&frames[1].image, &target) >= weathered_area(&frames[0].image, &target));
+}
+
+#[test]
+fn weathering_is_the_same_at_any_thread_count() {
+    let (img, _) = samples::weather(&samples::tiles(96, 96, 1), Weathering::Stain, 0.1, 4);
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (1, 1);
+    let run = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| weather::weather(&img, &p, Overrides::default(), 21, &|_| {}).unwrap())
+    };
+    let (a, b) = (run(1), run(3));
+    assert_eq!(a.age.data(), b.age.data());
+    for (x, y) in a.frames.iter().zip(&b.frames) {
+        assert_eq!(x.image.data(), y.image.data(), "frame t = {}", x.t);
+    }
+}
+
+#[test]
+fn user_maps_replace_the_automatic_ones_and_bad_sizes_are_refused() {
+    let (img, mask) = samples::weather(&samples::tiles(96, 96, 1), Weathering::Rust, 0.1, 4);
+    let original = samples::tiles(96, 96, 1);
+    let age = mask.to_image();
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (1, 0);
+    let r = weather::weather(&img, &p, Overrides { age: Some(&age), intact: Some(&original), labels: None }, 1, &|_| {}).unwrap();
+    assert_eq!(r.age.data(), age.data(), "the user age map is used as given");
+    assert_eq!(r.frames[0].image.data(), original.data(), "t = 0 is the user's intact texture");
+    let small = Image::new(50, 50, 1);
+    let e = weather::weather(&img, &p, Overrides { age: Some(&small), ..Default::default() }, 1, &|_| {}).unwrap_err();
+    assert!(e.is_usage() && e.to_string().contains("age map"), "{e}");
+    let tiny = Image::new(12, 12, 3);
+    let e = age_map(&tiny, &AgeParams::default()).unwrap_err();
+    assert!(e.is_usage() && e.to_string().contains("too small"), "{e}");
+}
+
+#[test]
+fn layers_split_two_materials_by_colour() {
+    // Left: teal paint; right: grey stone; each with its own grain.
+    let img = Image::from_fn(64, 48, 3, |x, y, p| {
+        let n = samples::value_noise(1, x as f32 / 3.0, y as f32 / 3.0) * 0.1;
+        let c = if x < 32 { [0.2, 0.6, 0.6] } else { [0.5, 0.5, 0.48] };
+        (0..3).for_each(|i| p[i] = c[i] + n);
+    });
+    let layers = Layers::kmeans(&img, 2, 7).unwrap();
+    assert_eq!(layers.count, 2);
+    let left = layers.labels[0];
+    for y in 0..48 {
+        for x in 0..64 {
+            assert_eq!(layers.labels[y * 64 + x] == left, x < 32, "pixel {x},{y}");
+        }
+    }
+    // Each layer's age spans [0, 1] after per-layer normalisation.
+    let age = Image::from_fn(64, 48, 1, |x, _, p| p[0] = if x < 32 { 0.1 + x as f32 / 320.0 } else { 0.5 + x as f32 / 640.0 });
+    let norm = layers.normalise_age(&age);
+    assert_eq!(norm.at(0, 0, 0), 0.0);
+    assert_eq!(norm.at(31, 0, 0), 1.0);
+    assert_eq!(norm.at(32, 0, 0), 0.0);
+}
