@@ -139,11 +139,65 @@ fn demo_makes_its_own_samples_and_measures_them() {
     let out = dir.join("demo");
     let r = patina(&["demo", "--out", s(&out)], None);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_eq!(listing(&out), vec!["exemplar.png", "manifest.json", "optimize.png", "quilt.png"]);
+    assert_eq!(listing(&out), vec!["exemplar.png", "manifest.json", "optimize.png", "quilt.png", "weather"]);
+    // The flagship: weathering of rusty tiles, with its own manifest.
+    let w: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("weather/manifest.json")).unwrap()).unwrap();
+    let areas: Vec<f64> = w["metrics"]["weathered_area"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    assert_eq!(areas.len(), 8);
+    assert!(areas[0] == 0.0 && areas.windows(2).all(|p| p[1] >= p[0]) && areas[7] > areas[4], "{areas:?}");
+    assert!(w["params"]["tiles"].is_object(), "the demo tiles have a grid");
     let m: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
     let own = m["metrics"]["exemplar_self_similarity"].as_f64().unwrap();
     for method in ["optimize", "quilt"] {
         let c = m["metrics"][format!("{method}_coherence")].as_f64().unwrap();
         assert!(c > 0.0 && c < 1.5 * own, "{method} coherence {c} vs self-similarity {own}");
+    }
+}
+
+#[test]
+fn weather_writes_frames_gif_and_a_manifest_with_times() {
+    let dir = scratch("weather");
+    let (img, _) = patina::samples::weather(&patina::samples::tiles(96, 96, 1), patina::samples::Weathering::Rust, 0.1, 2);
+    let input = dir.join("rusty.png");
+    save_png(&img, &input, BitDepth::Eight).unwrap();
+    let out = dir.join("out");
+    let r = patina(&["weather", s(&input), "--out", s(&out), "--past", "2", "--future", "2", "--seed", "5"], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(listing(&out), vec!["age_map.png", "frames", "intact.png", "manifest.json", "sequence.gif"]);
+    assert_eq!(listing(&out.join("frames")), vec!["000.png", "001.png", "002.png", "003.png", "004.png", "005.png"]);
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    let ts: Vec<f64> = m["frames"].as_array().unwrap().iter().map(|f| f["t"].as_f64().unwrap()).collect();
+    assert_eq!(ts.len(), 6);
+    assert!(ts.windows(2).all(|w| w[0] < w[1]) && ts[0] == 0.0 && ts[3] == 1.0 && ts[5] == 2.0, "{ts:?}");
+    assert_eq!(m["params"]["age"]["grid_used"], 12, "the grid shrinks so 96 px keeps 8 px patches");
+    assert_eq!(load(out.join("frames/003.png")).unwrap().data(), load(&input).unwrap().data(), "t = 1 is the input");
+    // The GIF holds every frame.
+    let gif = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(std::fs::File::open(out.join("sequence.gif")).unwrap())).unwrap();
+    use image::AnimationDecoder;
+    assert_eq!(gif.into_frames().count(), 6);
+    // Bad inputs: one line, exit 2, nothing written.
+    let tiny = dir.join("tiny.png");
+    save_png(&patina::image::Image::new(10, 10, 3), &tiny, BitDepth::Eight).unwrap();
+    let bad = dir.join("bad");
+    fails_cleanly(&dir, &["weather", s(&tiny), "--out", s(&bad)], "too small");
+    assert!(!bad.exists(), "no output folder for a failed run");
+    fails_cleanly(&dir, &["weather", s(&input), "--out", s(&bad), "--age-map", s(&tiny)], "age map");
+    fails_cleanly(&dir, &["age-map", s(&input), "-o", s(&input)], "overwrite");
+}
+
+#[test]
+fn age_map_and_intact_write_single_images() {
+    let dir = scratch("agemap");
+    let (img, _) = patina::samples::weather(&patina::samples::gravel(96, 96, 1), patina::samples::Weathering::Stain, 0.1, 2);
+    let input = dir.join("in.png");
+    save_png(&img, &input, BitDepth::Eight).unwrap();
+    for (cmd, name) in [("age-map", "age.png"), ("intact", "intact.png")] {
+        let out = dir.join(name);
+        let r = patina(&[cmd, s(&input), "-o", s(&out)], None);
+        assert!(r.status.success(), "{cmd}: {}", String::from_utf8_lossy(&r.stderr));
+        let o = load(&out).unwrap();
+        assert_eq!(o.size(), (96, 96));
+        assert_eq!(o.channels(), if cmd == "age-map" { 1 } else { 3 });
+        assert!(dir.join(format!("{name}.manifest.json")).exists());
     }
 }
