@@ -175,7 +175,7 @@ pub fn run(args: Args) -> Result<()> {
     inputs.extend(m.labels.as_deref());
     let frame_count = args.past + args.future + 2;
     refuse_overwrite(&sequence_outputs(&args.out, frame_count, &["age_map.png", "intact.png", "layers.png"]), &inputs)?;
-    if !(args.span > 0.0) {
+    if args.span.is_nan() || args.span <= 0.0 {
         return Err(Error::invalid(format!("--span must be positive, got {}", args.span)));
     }
     let input = io::load(&args.input)?;
@@ -342,7 +342,7 @@ pub fn run_transfer(args: TransferArgs) -> Result<()> {
         report(1, total);
         let i = intact(&source, &a.map, None, &params.intact, m.seed)?;
         report(2, total);
-        transfer::transfer(&source, &a.map, &i.image, &target, &times, &params.intact.rebuild, m.seed, &|k| report(2 + k as u64, total))
+        transfer::transfer(&transfer::Source { image: &source, age: &a.map, intact: &i.image }, &target, &times, &params.intact.rebuild, m.seed, &|k| report(2 + k as u64, total))
     })?;
     manifest.timings_ms.insert("transfer".into(), clock.lap());
     mkdir(&args.out)?;

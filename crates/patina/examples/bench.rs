@@ -1,4 +1,6 @@
-//! Synthesis benchmark: prints a table of timings and peak memory.
+//! Synthesis and weathering benchmark: prints a table of timings and peak
+//! memory. `weather` is the whole single-image method (age map, intact
+//! texture, 3 past and 3 future frames).
 //!
 //!     cargo run --release -p patina --example bench            # full table
 //!     cargo run --release -p patina --example bench -- --quick # smaller set
@@ -10,6 +12,7 @@
 
 use patina::image::resample::{resize, Filter};
 use patina::synth::{OptimizeParams, QuiltParams, Synthesis};
+use patina::weather;
 use patina::Image;
 use std::process::Command;
 use std::time::Instant;
@@ -18,6 +21,8 @@ fn exemplar(name: &str, side: usize) -> (Image, &'static str) {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     let (file, label) = match name {
         "rust" => ("weathered/corroded_rust_swirls.jpg", "rust_swirls"),
+        "blooms" => ("weathered/rust_blooms_on_teal_paint.jpg", "rust_blooms"),
+        "planks" => ("weathered/weathered_wood_planks_knots.jpg", "wood_planks"),
         _ => ("clean/skimage_gravel_gray.png", "gravel"),
     };
     match patina::image::io::load(root.join(file)) {
@@ -50,7 +55,10 @@ fn run_case(method: &str, texture: &str, side: usize, scale: usize, runs: usize)
             let problem = Synthesis::new(&ex).size(out, out).seed(i as u64);
             match method {
                 "optimize" => drop(problem.optimize(&OptimizeParams::default()).expect("optimize")),
-                _ => drop(problem.quilt(&QuiltParams::default()).expect("quilt")),
+                "quilt" => drop(problem.quilt(&QuiltParams::default()).expect("quilt")),
+                "age-map" => drop(weather::age_map(&ex, &Default::default()).expect("age map")),
+                // The whole method: age map, intact, 3 past and 3 future frames.
+                _ => drop(weather::weather(&ex, &Default::default(), Default::default(), i as u64, &|_| {}).expect("weather")),
             }
             t.elapsed().as_secs_f64() * 1000.0
         })
@@ -76,9 +84,14 @@ fn main() {
             }
         }
     }
+    for texture in ["blooms", "planks"] {
+        cases.push(("age-map", texture, 512, 1, 3));
+        cases.push(("weather", texture, 512, 1, if quick { 1 } else { 3 }));
+    }
     if !quick {
         cases.push(("quilt", "rust", 256, 16, 1));
         cases.push(("optimize", "rust", 512, 8, 1));
+        cases.push(("weather", "blooms", 1024, 1, 1));
     }
     let threads = rayon::current_num_threads();
     println!("| method | exemplar | output | time (ms) | peak RSS (MiB) |");

@@ -134,7 +134,7 @@ fn transfer_carries_rust_onto_a_clean_texture() {
     let target = samples::gravel(SIZE, SIZE, 2);
     let age = age_map(&source, &AgeParams::default()).unwrap();
     let s_intact = intact(&source, &age.map, None, &IntactParams::default(), 1).unwrap();
-    let frames = transfer::transfer(&source, &age.map, &s_intact.image, &target, &[0.5, 1.0], &Default::default(), 3, &|_| {}).unwrap();
+    let frames = transfer::transfer(&transfer::Source { image: &source, age: &age.map, intact: &s_intact.image }, &target, &[0.5, 1.0], &Default::default(), 3, &|_| {}).unwrap();
     let rusty = |img: &Image| {
         img.data().chunks_exact(3).filter(|p| p[0] > 0.45 && p[0] - p[2] > 0.3).count() as f32 / (SIZE * SIZE) as f32
     };

@@ -137,7 +137,8 @@ pub fn future(input: &Image, intact: &Image, age: &Image, grid_cells: usize, age
     check_sizes(input, intact, age)?;
     let (w, h, n) = (input.width(), input.height(), input.channels());
     let s = params.patch.unwrap_or(age_patch).clamp(3, w.min(h));
-    if !(params.delta >= 0.0 && params.delta <= 1.0) || !(params.future_span > 0.0) || !(params.search >= 0.0) {
+    let valid = (0.0..=1.0).contains(&params.delta) && params.future_span > 0.0 && params.search >= 0.0;
+    if !valid {
         return Err(Error::invalid("future frames need delta in [0, 1], a positive span and a non-negative search window"));
     }
     let steps = params.steps.unwrap_or(grid_cells / 2);

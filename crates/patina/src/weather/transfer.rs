@@ -19,9 +19,18 @@ use crate::image::resample::{resize, Filter};
 use crate::image::Image;
 use crate::rng;
 
+/// The weathered texture S with its age map and intact texture.
+#[derive(Clone, Copy, Debug)]
+pub struct Source<'a> {
+    pub image: &'a Image,
+    pub age: &'a Image,
+    pub intact: &'a Image,
+}
+
 /// Frames of T taking on S's weathering at `times` (each in (0, 1]).
-/// `source_age` and `source_intact` are S's age map and intact texture.
-pub fn transfer(source: &Image, source_age: &Image, source_intact: &Image, target: &Image, times: &[f32], params: &RebuildParams, seed: u64, progress: &dyn Fn(usize)) -> Result<Vec<Frame>> {
+pub fn transfer(source: &Source, target: &Image, times: &[f32], params: &RebuildParams, seed: u64, progress: &dyn Fn(usize)) -> Result<Vec<Frame>> {
+    let (source_age, source_intact) = (source.age, source.intact);
+    let source = source.image;
     if source.channels() != target.channels() {
         return Err(Error::invalid(format!(
             "the source has {} channels but the target has {}",
