@@ -1,3 +1,8 @@
+//! Age-map accuracy table: ROC AUC of the age map against the injected
+//! weathering mask, per base texture (tiles, gravel, cobbles, blotches) and
+//! kind (rust, stain, cracks), for a few parameter choices.
+//!
+//!     cargo run --release -p patina --example age_auc -- 160   # image side
 use patina::metrics::roc_auc;
 use patina::samples::{self, Weathering};
 use patina::weather::{age_map, AgeParams};
@@ -9,6 +14,8 @@ fn main() {
         ("k10", AgeParams { k_fraction: None, ..Default::default() }),
     ];
     let size: usize = std::env::args().nth(1).map_or(256, |s| s.parse().unwrap());
+    let bases = ["tiles", "gravel", "cobbles", "blotches"];
+    println!("{:14} {}", "AUC", bases.map(|b| format!("{:>17}", format!("{b}: R/S/C"))).join(" "));
     for (name, p) in &configs {
         let mut line = format!("{name:14}");
         for base in ["tiles", "gravel", "cobbles", "blotches"] {
