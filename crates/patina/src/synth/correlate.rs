@@ -9,6 +9,7 @@
 //! non-zero rows are transformed) and one inverse transform for all terms
 //! together. This is what makes quilting's exhaustive candidate search fast.
 
+use crate::image::summed::SummedArea;
 use crate::image::Image;
 use realfft::num_complex::Complex;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
@@ -127,9 +128,9 @@ pub struct SpectralSource {
     weights: Vec<f32>,
     spectra: Vec<Vec<C32>>,
     squares: Vec<C32>,
-    /// Summed-area table of Q, (width + 1) x (height + 1): the squares term
-    /// of an unmasked (box) template without a transform.
-    squares_sat: Vec<f64>,
+    /// Summed-area table of Q: the squares term of an unmasked (box)
+    /// template without a transform.
+    squares_sat: SummedArea,
 }
 
 /// Accumulates the terms of one query (see [`SpectralSource::add_term`]).
@@ -167,14 +168,7 @@ impl SpectralSource {
         }
         let mut squares = vec![C32::new(0.0, 0.0); plans.spectrum_len()];
         plans.forward(&plane, w, h, &mut squares, &mut scratch);
-        let mut squares_sat = vec![0f64; (w + 1) * (h + 1)];
-        for y in 0..h {
-            let mut row = 0f64;
-            for x in 0..w {
-                row += plane[y * w + x] as f64;
-                squares_sat[(y + 1) * (w + 1) + x + 1] = squares_sat[y * (w + 1) + x + 1] + row;
-            }
-        }
+        let squares_sat = SummedArea::new(w, h, |x, y| plane[y * w + x] as f64);
         SpectralSource { plans, width: w, height: h, channels: n, weights: weights.to_vec(), spectra, squares, squares_sat }
     }
 
@@ -272,13 +266,10 @@ impl SpectralSource {
         let (vw, vh) = (self.width - q.kw + 1, self.height - q.kh + 1);
         let mut out = Vec::with_capacity(vw * vh);
         let k = q.constant as f32;
-        let sw = self.width + 1;
-        let sat = &self.squares_sat;
         for y in 0..vh {
             out.extend(full[y * fw..y * fw + vw].iter().enumerate().map(|(x, v)| {
                 let boxed = if q.box_scale != 0.0 {
-                    let s = sat[(y + q.kh) * sw + x + q.kw] - sat[y * sw + x + q.kw] - sat[(y + q.kh) * sw + x] + sat[y * sw + x];
-                    (q.box_scale * s) as f32
+                    (q.box_scale * self.squares_sat.sum(x, y, q.kw, q.kh)) as f32
                 } else {
                     0.0
                 };

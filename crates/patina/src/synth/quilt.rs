@@ -29,6 +29,7 @@
 use super::correlate::{masked_ssd, SpectralSource};
 use super::problem::Synthesis;
 use crate::error::{Error, Result};
+use crate::image::summed::SummedArea;
 use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};
 use rayon::prelude::*;
@@ -198,22 +199,9 @@ impl QuiltPlan {
 /// (w - bw + 1) x (h - bh + 1)), whether every pixel it covers is allowed.
 fn usable_placements(allowed: &Mask, (bw, bh): (usize, usize)) -> Vec<bool> {
     let (w, h) = allowed.size();
-    let mut sat = vec![0u32; (w + 1) * (h + 1)];
-    for y in 0..h {
-        let mut row = 0;
-        for x in 0..w {
-            row += u32::from(!allowed.get(x, y));
-            sat[(y + 1) * (w + 1) + x + 1] = sat[y * (w + 1) + x + 1] + row;
-        }
-    }
+    let refused = SummedArea::new(w, h, |x, y| f64::from(u8::from(!allowed.get(x, y))));
     let (vw, vh) = (w + 1 - bw, h + 1 - bh);
-    (0..vw * vh)
-        .map(|i| {
-            let (x, y) = (i % vw, i / vw);
-            let at = |xx: usize, yy: usize| sat[yy * (w + 1) + xx];
-            at(x + bw, y + bh) + at(x, y) == at(x, y + bh) + at(x + bw, y)
-        })
-        .collect()
+    (0..vw * vh).map(|i| refused.sum(i % vw, i / vw, bw, bh) == 0.0).collect()
 }
 
 fn grid(w: usize, h: usize, block: (usize, usize), overlap: (usize, usize)) -> (usize, usize) {
