@@ -63,27 +63,46 @@ pub fn bricks(width: usize, height: usize, seed: u64) -> Image {
     })
 }
 
+/// The Voronoi cell of a point on a jittered unit grid.
+struct Voronoi {
+    /// Distances to the nearest and second-nearest feature points.
+    d1: f32,
+    d2: f32,
+    /// Grid cell of the nearest feature point.
+    id: (i64, i64),
+    /// The point minus its nearest feature point.
+    offset: (f32, f32),
+}
+
+/// Voronoi cell of (fx, fy) (grid units) among feature points placed one
+/// per cell at `margin` + (1 - 2 `margin`) x a hash of the cell under
+/// `seeds` (one seed per axis).
+fn voronoi(fx: f32, fy: f32, seeds: (u64, u64), margin: f32) -> Voronoi {
+    let (cx, cy) = (fx.floor() as i64, fy.floor() as i64);
+    let span = 1.0 - 2.0 * margin;
+    let mut v = Voronoi { d1: f32::MAX, d2: f32::MAX, id: (0, 0), offset: (0.0, 0.0) };
+    for j in -1..=1 {
+        for i in -1..=1 {
+            let (gx, gy) = (cx + i, cy + j);
+            let px = gx as f32 + margin + span * lattice(seeds.0, gx, gy);
+            let py = gy as f32 + margin + span * lattice(seeds.1, gx, gy);
+            let d = ((px - fx).powi(2) + (py - fy).powi(2)).sqrt();
+            if d < v.d1 {
+                (v.d2, v.d1, v.id, v.offset) = (v.d1, d, (gx, gy), (fx - px, fy - py));
+            } else if d < v.d2 {
+                v.d2 = d;
+            }
+        }
+    }
+    v
+}
+
 /// Cobbles: Voronoi cells on a jittered 24 px grid, each cell its own stone
 /// colour, dark joints, speckle noise. Irregular structure.
 pub fn cobbles(width: usize, height: usize, seed: u64) -> Image {
     let cell = 24.0f32;
     Image::from_fn(width, height, 3, |x, y, p| {
-        let (fx, fy) = (x as f32 / cell, y as f32 / cell);
-        let (cx, cy) = (fx.floor() as i64, fy.floor() as i64);
-        let (mut d1, mut d2, mut id) = (f32::MAX, f32::MAX, (0, 0));
-        for j in -1..=1 {
-            for i in -1..=1 {
-                let (gx, gy) = (cx + i, cy + j);
-                let px = gx as f32 + 0.15 + 0.7 * lattice(seed, gx, gy);
-                let py = gy as f32 + 0.15 + 0.7 * lattice(seed ^ 0x77, gx, gy);
-                let d = ((px - fx).powi(2) + (py - fy).powi(2)).sqrt();
-                if d < d1 {
-                    (d2, d1, id) = (d1, d, (gx, gy));
-                } else if d < d2 {
-                    d2 = d;
-                }
-            }
-        }
+        let Voronoi { d1, d2, id, .. } = voronoi(x as f32 / cell, y as f32 / cell, (seed, seed ^ 0x77), 0.15);
         let joint = ((d2 - d1) * cell / 3.0).clamp(0.0, 1.0);
         let tone = lattice(seed ^ 0x99, id.0, id.1);
         let speck = fractal_noise(seed ^ 0x5e, x as f32, y as f32, 3.0, 2) - 0.5;
@@ -101,22 +120,7 @@ pub fn cobbles(width: usize, height: usize, seed: u64) -> Image {
 pub fn gravel(width: usize, height: usize, seed: u64) -> Image {
     let cell = 7.0f32;
     Image::from_fn(width, height, 3, |x, y, p| {
-        let (fx, fy) = (x as f32 / cell, y as f32 / cell);
-        let (cx, cy) = (fx.floor() as i64, fy.floor() as i64);
-        let (mut d1, mut d2, mut id, mut off) = (f32::MAX, f32::MAX, (0, 0), (0.0, 0.0));
-        for j in -1..=1 {
-            for i in -1..=1 {
-                let (gx, gy) = (cx + i, cy + j);
-                let px = gx as f32 + 0.1 + 0.8 * lattice(seed, gx, gy);
-                let py = gy as f32 + 0.1 + 0.8 * lattice(seed ^ 0x31, gx, gy);
-                let d = ((px - fx).powi(2) + (py - fy).powi(2)).sqrt();
-                if d < d1 {
-                    (d2, d1, id, off) = (d1, d, (gx, gy), (fx - px, fy - py));
-                } else if d < d2 {
-                    d2 = d;
-                }
-            }
-        }
+        let Voronoi { d1, d2, id, offset: off } = voronoi(x as f32 / cell, y as f32 / cell, (seed, seed ^ 0x31), 0.1);
         let gap = ((d2 - d1) * cell / 1.5).clamp(0.0, 1.0);
         let tone = lattice(seed ^ 0x5a, id.0, id.1);
         let warm = lattice(seed ^ 0x6b, id.0, id.1);
