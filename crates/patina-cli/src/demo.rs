@@ -1,6 +1,8 @@
 //! `patina demo`: the whole pipeline on samples patina makes itself.
 
 use crate::output::{Manifest, Stopwatch};
+use clap::Parser;
+use std::ffi::OsStr;
 use crate::progress::with_bar;
 use patina::image::io::{save_png, BitDepth};
 use patina::synth::{OptimizeParams, QuiltParams, Synthesis};
@@ -72,15 +74,16 @@ fn weather_demo(args: &Args) -> Result<()> {
     std::fs::create_dir_all(&dir).map_err(|source| Error::Write { path: dir.clone(), source })?;
     let input_path = dir.join("input.png");
     save_png(&input, &input_path, BitDepth::Eight)?;
-    crate::weather::run(crate::weather::Args {
-        input: input_path,
-        out: dir,
-        past: 3,
-        future: 3,
-        span: 1.0,
-        steps: None,
-        age_map: None,
-        intact: None,
-        method: crate::weather::MethodArgs { seed: args.seed, ..Default::default() },
-    })
+    // Parsed like a command line, so the demo runs with the flags' defaults.
+    let seed = args.seed.to_string();
+    let argv: [&OsStr; 6] = ["weather".as_ref(), input_path.as_os_str(), "--out".as_ref(), dir.as_os_str(), "--seed".as_ref(), seed.as_ref()];
+    let weather = WeatherCommand::try_parse_from(argv).map_err(|e| Error::Internal(format!("demo arguments: {e}")))?;
+    crate::weather::run(weather.args)
+}
+
+/// `patina weather`'s arguments on their own, for the demo to parse.
+#[derive(clap::Parser)]
+struct WeatherCommand {
+    #[command(flatten)]
+    args: crate::weather::Args,
 }

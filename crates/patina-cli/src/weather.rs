@@ -46,13 +46,6 @@ pub struct MethodArgs {
     pub seed: u64,
 }
 
-impl Default for MethodArgs {
-    /// The same values as the flags' defaults.
-    fn default() -> Self {
-        MethodArgs { grid: 20, k_fraction: 0.4, luminance_only: false, detail: 1.0, discard: 0.2, no_tiles: false, layers: 0, labels: None, seed: 0 }
-    }
-}
-
 impl MethodArgs {
     fn params(&self) -> WeatherParams {
         let mut p = WeatherParams::default();
@@ -251,12 +244,8 @@ fn single_setup(args: &SingleArgs, command: &str) -> Result<(Manifest, PathBuf, 
     check_outputs(&[&args.out, &manifest_file], &inputs)?;
     io::output_format(&args.out, 3)?;
     let input = io::load(&args.input)?;
-    let layers = match load_labels(&args.method)? {
-        Some(l) if l.size() != input.size() => return Err(Error::invalid("the label image and the input differ in size")),
-        Some(l) => Some(Layers::from_label_image(&l)?),
-        None if args.method.layers > 1 => Some(Layers::kmeans(&input, args.method.layers, args.method.seed)?),
-        None => None,
-    };
+    let labels = load_labels(&args.method)?;
+    let layers = weather::resolve_layers(&input, args.method.layers, labels.as_ref(), args.method.seed)?;
     let mut manifest = Manifest::new(command, args.method.seed);
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.outputs = vec![args.out.clone()];
@@ -271,17 +260,15 @@ pub fn run_age_map(args: SingleArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
     let (mut manifest, manifest_file, input, layers) = single_setup(&args, "age-map")?;
     let params = args.method.params();
-    let a = age_map(&input, &params.age)?;
-    let map = match &layers {
-        Some(l) => l.normalise_age(&a.map),
-        None => a.map,
-    };
+    let (map, grid) = weather::resolve_age(&input, &params.age, None, layers.as_ref())?;
     manifest.timings_ms.insert("age_map".into(), clock.lap());
     save_png(&map, &args.out, BitDepth::Eight)?;
     let mut p = serde_json::to_value(&params.age).map_err(|e| Error::Internal(e.to_string()))?;
-    p["grid_used"] = json!(a.grid);
-    p["patch_used"] = json!([a.patch.0, a.patch.1]);
-    p["k_used"] = json!(a.k);
+    if let Some((n, patch, k)) = grid {
+        p["grid_used"] = json!(n);
+        p["patch_used"] = json!([patch.0, patch.1]);
+        p["k_used"] = json!(k);
+    }
     p["layers_used"] = json!(layers.as_ref().map(|l| l.count));
     manifest.params = p;
     manifest.write(&manifest_file)
@@ -292,16 +279,8 @@ pub fn run_intact(args: SingleArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
     let (mut manifest, manifest_file, input, layers) = single_setup(&args, "intact")?;
     let params = args.method.params();
-    let age = match &args.age_map {
-        Some(p) => patina::image::color::luminance(&io::load(p)?).map(|v| v.clamp(0.0, 1.0)),
-        None => {
-            let a = age_map(&input, &params.age)?;
-            match &layers {
-                Some(l) => l.normalise_age(&a.map),
-                None => a.map,
-            }
-        }
-    };
+    let user_age = args.age_map.as_ref().map(io::load).transpose()?;
+    let (age, _) = weather::resolve_age(&input, &params.age, user_age.as_ref(), layers.as_ref())?;
     let result = with_bar("intact", |_| intact(&input, &age, layers.as_ref(), &params.intact, args.method.seed))?;
     manifest.timings_ms.insert("intact".into(), clock.lap());
     save_png(&result.image, &args.out, BitDepth::Eight)?;

@@ -230,18 +230,18 @@ pub(crate) fn normalise(img: &mut Image) {
 /// (gravel) every patch is a little unique, and only what stands out of
 /// that spread counts.
 fn detail_term(f: &Features, coarse: &Image, patch: usize) -> Result<Image> {
-    let stacked = f.appearance.clone();
-    let (w, h) = stacked.size();
+    let appearance = &f.appearance;
+    let (w, h) = appearance.size();
     let r = patch / 2;
     let mut ages: Vec<f32> = coarse.data().to_vec();
     ages.sort_by(f32::total_cmp);
     let median = ages[ages.len() / 2];
     let pool = Mask::from_fn(w, h, |x, y| coarse.at(x, y, 0) <= median);
     let domain = SourceDomain::new(w, h, r, Some(&pool)).or_else(|_| SourceDomain::new(w, h, r, None))?;
-    let metric = PatchMetric::mean_ssd(stacked.channels());
+    let metric = PatchMetric::mean_ssd(appearance.channels());
     let mut nnf = random_nnf(w, h, &domain, 0xa9e);
     let pm = PatchMatch { radius: r, iterations: 6, metric: &metric, uniformity: 0.0, max_search_radius: None, exclude_self: Some(patch) };
-    pm.improve(&stacked, &stacked, &domain, &mut nnf, None, 0xa9e5);
+    pm.improve(appearance, appearance, &domain, &mut nnf, None, 0xa9e5);
     let cost = Image::from_fn(w, h, 1, |x, y, p| p[0] = nnf.get(x, y).cost.max(0.0).sqrt());
     // Spread each patch's distance over the pixels it covers.
     let spread = gaussian_blur(&cost, r as f32 * 0.5 + 0.5);

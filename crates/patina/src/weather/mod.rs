@@ -67,7 +67,7 @@ pub struct Weathered {
     /// The age map (one channel, 0 intact .. 1 most weathered).
     pub age: Image,
     /// Grid N, patch size and K of the automatic age map (`None` when given).
-    pub age_grid: Option<(usize, (usize, usize), usize)>,
+    pub age_grid: Option<AgeGrid>,
     pub intact: Image,
     /// The tile grid, when one was found.
     pub lattice: Option<tiles::Lattice>,
@@ -77,9 +77,27 @@ pub struct Weathered {
     pub frames: Vec<Frame>,
 }
 
-/// The whole method on `input` (sRGB colour or grey, values in [0, 1]).
-pub fn weather(input: &Image, params: &WeatherParams, overrides: Overrides, seed: u64, progress: &(dyn Fn(Stage) + Sync)) -> Result<Weathered> {
-    let (age, age_grid) = match overrides.age {
+/// Grid N, patch size and K of an automatic age map.
+pub type AgeGrid = (usize, (usize, usize), usize);
+
+/// The colour layers asked for: the label image when given, else k-means
+/// into `count` layers when `count` > 1, else none.
+pub fn resolve_layers(input: &Image, count: usize, labels: Option<&Image>, seed: u64) -> Result<Option<layers::Layers>> {
+    match labels {
+        Some(l) if l.size() != input.size() => {
+            Err(Error::invalid(format!("the label image is {}x{} but the input is {}x{}", l.width(), l.height(), input.width(), input.height())))
+        }
+        Some(l) => Ok(Some(layers::Layers::from_label_image(l)?)),
+        None if count > 1 => Ok(Some(layers::Layers::kmeans(input, count, crate::rng::derive(seed, &[4]))?)),
+        None => Ok(None),
+    }
+}
+
+/// The age map the method uses: the user's (its luminance, clamped to
+/// [0, 1]) or the automatic one with its grid, normalised within each
+/// layer when there are layers.
+pub fn resolve_age(input: &Image, params: &AgeParams, user: Option<&Image>, layers: Option<&layers::Layers>) -> Result<(Image, Option<AgeGrid>)> {
+    let (age, grid) = match user {
         Some(a) => {
             if a.size() != input.size() {
                 return Err(Error::invalid(format!(
@@ -93,22 +111,21 @@ pub fn weather(input: &Image, params: &WeatherParams, overrides: Overrides, seed
             (crate::image::color::luminance(a).map(|v| v.clamp(0.0, 1.0)), None)
         }
         None => {
-            let a = age_map(input, &params.age)?;
+            let a = age_map(input, params)?;
             (a.map, Some((a.grid, a.patch, a.k)))
         }
     };
-    let layers = match overrides.labels {
-        Some(l) if l.size() != input.size() => {
-            return Err(Error::invalid(format!("the label image is {}x{} but the input is {}x{}", l.width(), l.height(), input.width(), input.height())))
-        }
-        Some(l) => Some(layers::Layers::from_label_image(l)?),
-        None if params.layers > 1 => Some(layers::Layers::kmeans(input, params.layers, crate::rng::derive(seed, &[4]))?),
-        None => None,
-    };
-    let age = match &layers {
+    let age = match layers {
         Some(l) => l.normalise_age(&age),
         None => age,
     };
+    Ok((age, grid))
+}
+
+/// The whole method on `input` (sRGB colour or grey, values in [0, 1]).
+pub fn weather(input: &Image, params: &WeatherParams, overrides: Overrides, seed: u64, progress: &(dyn Fn(Stage) + Sync)) -> Result<Weathered> {
+    let layers = resolve_layers(input, params.layers, overrides.labels, seed)?;
+    let (age, age_grid) = resolve_age(input, &params.age, overrides.age, layers.as_ref())?;
     progress(Stage::AgeMap);
     let (intact_img, lattice) = match overrides.intact {
         Some(i) => {

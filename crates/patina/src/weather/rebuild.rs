@@ -15,8 +15,8 @@
 //! The guide compares luminance, colour and gradient direction
 //! ([`Features`]), the distance of eq. (1).
 
-use super::features::{rgb, Features};
-use crate::error::Result;
+use super::features::Features;
+use crate::error::{Error, Result};
 use crate::image::{Image, Mask};
 use crate::synth::{OptimizeParams, QuiltParams, Synthesis};
 use serde::{Deserialize, Serialize};
@@ -85,10 +85,26 @@ pub fn rebuild(exemplar: &Image, template: &Image, allowed: Option<&Mask>, engin
     }
 }
 
-/// Per-pixel colour distance between two images (first three channels).
+/// Colour distance between two pixels of the same channel count: over the
+/// first three channels, or (grey) channel 0 counted as three, as
+/// [`super::features::rgb`] reads it.
+#[inline]
+pub fn pixel_distance(a: &[f32], b: &[f32]) -> f32 {
+    if a.len() >= 3 {
+        a[..3].iter().zip(&b[..3]).map(|(x, y)| (x - y) * (x - y)).sum::<f32>().sqrt()
+    } else {
+        let d = a[0] - b[0];
+        (3.0 * d * d).sqrt()
+    }
+}
+
+/// Per-pixel colour distance between two images (see [`pixel_distance`]).
 pub fn colour_distance(a: &Image, b: &Image) -> Result<Vec<f32>> {
-    let (a, b) = (rgb(a)?, rgb(b)?);
-    Ok(a.data().chunks_exact(3).zip(b.data().chunks_exact(3)).map(|(p, q)| p.iter().zip(q).map(|(x, y)| (x - y) * (x - y)).sum::<f32>().sqrt()).collect())
+    if a.size() != b.size() || a.channels() != b.channels() {
+        return Err(Error::invalid("cannot compare images of different sizes or channel counts"));
+    }
+    let n = a.channels();
+    Ok(a.data().chunks_exact(n).zip(b.data().chunks_exact(n)).map(|(p, q)| pixel_distance(p, q)).collect())
 }
 
 /// The scale that maps a per-pixel weathering amount Delta to [0, 1]: its

@@ -21,9 +21,10 @@
 //! texture. Pixels whose template did not change keep the previous frame
 //! exactly (a rebuild is a new synthesis and would otherwise add noise).
 
-use super::rebuild::{colour_distance, delta_scale, rebuild, Engine, RebuildParams};
+use super::rebuild::{colour_distance, delta_scale, pixel_distance, rebuild, Engine, RebuildParams};
 use crate::error::{Error, Result};
 use crate::image::filter::{gaussian_blur, gradients};
+use crate::image::summed::SummedArea;
 use crate::image::Image;
 use crate::rng::{self, Rng};
 use serde::{Deserialize, Serialize};
@@ -79,16 +80,15 @@ pub(crate) fn settle(rebuilt: &Image, template: &Image, previous: &Image, intact
     let d_old = colour_distance(previous, intact)?;
     let n = previous.channels();
     let mut out = previous.clone();
+    let mut blend = vec![0f32; n];
     for (i, px) in out.data_mut().chunks_exact_mut(n).enumerate() {
         let w = (weight.data()[i] * 2.0).min(1.0);
         if w > 0.0 && d_new[i] > d_old[i] {
             let r = &rebuilt.data()[i * n..(i + 1) * n];
-            let blend: Vec<f32> = px.iter().zip(r).map(|(p, q)| p + w * (q - p)).collect();
+            blend.iter_mut().zip(px.iter().zip(r)).for_each(|(b, (p, q))| *b = p + w * (q - p));
             // A partial blend can point elsewhere than the rebuilt pixel:
             // keep it only when it too is farther from intact.
-            let k = n.min(3);
-            let d_blend = blend[..k].iter().zip(&intact.data()[i * n..i * n + k]).map(|(a, b)| (a - b) * (a - b)).sum::<f32>().sqrt();
-            if d_blend > d_old[i] {
+            if pixel_distance(&blend, &intact.data()[i * n..(i + 1) * n]) > d_old[i] {
                 px.copy_from_slice(&blend);
             }
         }
@@ -173,7 +173,7 @@ pub fn future(input: &Image, intact: &Image, age: &Image, grid_cells: usize, age
             for v in 0..s {
                 for u in 0..s {
                     let i = (py + v) * w + px + u;
-                    let d = colour_distance_px(&template.data()[i * n..i * n + n.min(3)], &intact.data()[i * n..i * n + n.min(3)]);
+                    let d = pixel_distance(&template.data()[i * n..(i + 1) * n], &intact.data()[i * n..(i + 1) * n]);
                     m = m.max((d / scale).min(1.0));
                 }
             }
@@ -211,7 +211,7 @@ pub fn future(input: &Image, intact: &Image, age: &Image, grid_cells: usize, age
                     let (du, dv) = orient(o, u, v, s);
                     let (sx, sy) = (qx + du, qy + dv);
                     let dq = delta_in[sy * w + sx] * window[v * s + u];
-                    let src = input.pixel(sx, sy).to_vec();
+                    let src = input.pixel(sx, sy);
                     let dst = template.pixel_mut(px + u, py + v);
                     for c in 0..n {
                         dst[c] = dst[c] * (1.0 - dq) + src[c] * dq;
@@ -227,37 +227,20 @@ pub fn future(input: &Image, intact: &Image, age: &Image, grid_cells: usize, age
     Ok(frames)
 }
 
-fn colour_distance_px(a: &[f32], b: &[f32]) -> f32 {
-    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f32>().sqrt()
-}
-
 /// Mean of a one-channel image over every s x s placement, row-major over
 /// (w - s + 1) x (h - s + 1).
 fn box_means(img: &Image, s: usize) -> Vec<f32> {
     let (w, h) = img.size();
-    let mut sat = vec![0f64; (w + 1) * (h + 1)];
-    for y in 0..h {
-        let mut row = 0f64;
-        for x in 0..w {
-            row += img.at(x, y, 0) as f64;
-            sat[(y + 1) * (w + 1) + x + 1] = sat[y * (w + 1) + x + 1] + row;
-        }
-    }
+    let sums = SummedArea::new(w, h, |x, y| img.at(x, y, 0) as f64);
     let (vw, vh) = (w - s + 1, h - s + 1);
     let area = (s * s) as f64;
-    (0..vw * vh)
-        .map(|i| {
-            let (x, y) = (i % vw, i / vw);
-            let at = |xx: usize, yy: usize| sat[yy * (w + 1) + xx];
-            ((at(x + s, y + s) - at(x + s, y) - at(x, y + s) + at(x, y)) / area) as f32
-        })
-        .collect()
+    (0..vw * vh).map(|i| (sums.sum(i % vw, i / vw, s, s) / area) as f32).collect()
 }
 
 /// A random index among the `k` values nearest `want` (ties by index).
 fn nearest_age(values: &[f32], want: f32, k: usize, g: &mut impl Rng) -> usize {
-    // Subsample for speed: every placement is a candidate, but a strided
-    // scan keeps each step O(placements / 16).
+    // A strided scan from a random offset: each step looks at a quarter
+    // of the placements.
     let stride = 4;
     let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
     let offset = g.gen_range(0..stride);
