@@ -93,6 +93,9 @@ pub struct AgeMap {
 impl AgeParams {
     /// N and the patch size for a `w` x `h` image.
     pub fn resolve(&self, w: usize, h: usize) -> Result<(usize, (usize, usize))> {
+        if self.grid < 3 {
+            return Err(Error::invalid(format!("the age map grid must be at least 3x3 patches, got {}", self.grid)));
+        }
         let min_patch = self.min_patch.max(3);
         let n = self.grid.min(w / min_patch).min(h / min_patch);
         if n < 3 {
