@@ -16,6 +16,7 @@ pub mod metrics;
 pub mod rng;
 pub mod samples;
 pub mod synth;
+pub mod ttf;
 pub mod weather;
 
 pub use error::{Error, Result};

@@ -257,6 +257,60 @@ pub fn weather(base: &Image, kind: Weathering, area: f32, seed: u64) -> (Image, 
     (out, mask)
 }
 
+/// A rusting-steel time-lapse: brushed grey steel on which rust spots
+/// appear at random times and places and grow, each at its own pace, over
+/// `frames` frames. The ground truth for time-varying synthesis.
+pub fn rusting_timelapse(width: usize, height: usize, frames: usize, seed: u64) -> Vec<Image> {
+    struct Spot {
+        x: f32,
+        y: f32,
+        start: f32,
+        grow: f32,
+        radius: f32,
+    }
+    let mut g = rng::generator(seed, &[7]);
+    let count = ((width * height) as f32 / 300.0).ceil() as usize;
+    let spots: Vec<Spot> = (0..count)
+        .map(|_| Spot {
+            x: g.gen_range(0.0..width as f32),
+            y: g.gen_range(0.0..height as f32),
+            start: g.gen_range(0.0..0.7),
+            grow: g.gen_range(0.15..0.5),
+            radius: g.gen_range(2.5..7.0),
+        })
+        .collect();
+    let steel = Image::from_fn(width, height, 1, |x, y, p| {
+        let streak = fractal_noise(seed ^ 0x51, x as f32 * 0.08, y as f32, 6.0, 3);
+        p[0] = 0.62 + 0.12 * (streak - 0.5) + 0.05 * (fractal_noise(seed ^ 0x52, x as f32, y as f32, 24.0, 3) - 0.5);
+    });
+    (0..frames)
+        .map(|f| {
+            let t = f as f32 / (frames.max(2) - 1) as f32;
+            Image::from_fn(width, height, 3, |x, y, p| {
+                let (fx, fy) = (x as f32 + 0.5, y as f32 + 0.5);
+                let wobble = 0.7 + 0.6 * value_noise(seed ^ 0x53, fx / 3.0, fy / 3.0);
+                let mut rust = 0.0f32;
+                for s in &spots {
+                    let age = ((t - s.start) / s.grow).clamp(0.0, 1.0);
+                    if age <= 0.0 {
+                        continue;
+                    }
+                    let r = s.radius * age.sqrt() * wobble;
+                    let d = ((fx - s.x).powi(2) + (fy - s.y).powi(2)).sqrt();
+                    rust = rust.max((1.0 - (d - r).max(0.0) / 1.5).clamp(0.0, 1.0) * (0.6 + 0.4 * age));
+                }
+                let v = steel.at(x, y, 0);
+                let grain = value_noise(seed ^ 0x54, fx / 1.5, fy / 1.5);
+                let rust_rgb = [0.42 + 0.15 * grain, 0.2 + 0.08 * grain, 0.07 + 0.04 * grain];
+                for c in 0..3 {
+                    let base = v * [1.0, 1.0, 1.03][c];
+                    p[c] = base + rust * (rust_rgb[c] - base);
+                }
+            })
+        })
+        .collect()
+}
+
 /// Named samples, for the CLI.
 pub const NAMES: [&str; 5] = ["bricks", "cobbles", "blotches", "tiles", "gravel"];
 

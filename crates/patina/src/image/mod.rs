@@ -11,6 +11,7 @@ pub mod color;
 pub mod filter;
 pub mod io;
 pub mod resample;
+pub mod sequence;
 pub mod summed;
 
 use crate::error::{Error, Result};

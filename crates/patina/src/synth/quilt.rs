@@ -119,17 +119,6 @@ pub struct Quilted {
 }
 
 impl QuiltPlan {
-    fn steps(&self) -> (usize, usize) {
-        (self.block.0 - self.overlap.0, self.block.1 - self.overlap.1)
-    }
-    fn grid(&self) -> (usize, usize) {
-        grid(self.width, self.height, self.block, self.overlap)
-    }
-    fn canvas(&self) -> (usize, usize) {
-        let ((nx, ny), (sx, sy)) = (self.grid(), self.steps());
-        (nx * sx + self.overlap.0, ny * sy + self.overlap.1)
-    }
-
     /// Paste the plan's blocks from `source` (any channels, the exemplar's size).
     pub fn render(&self, source: &Image) -> Result<Image> {
         if source.size() != self.source_size {
@@ -141,14 +130,37 @@ impl QuiltPlan {
                 source.height()
             )));
         }
-        let (cw, ch) = self.canvas();
-        let mut canvas = Image::new(cw, ch, source.channels());
-        for p in &self.placements {
-            paste(&mut canvas, source, p, self.block);
-        }
-        let mut out = canvas.crop(0, 0, self.width, self.height)?;
+        let mut out = self.render_with(source.channels(), |_, (sx, sy), _, px| px.copy_from_slice(source.pixel(sx, sy)));
         out.set_groups(source.groups().to_vec())?;
         Ok(out)
+    }
+
+    /// Paste the plan's blocks, reading each block pixel from `sample`:
+    /// `sample(placement index, exemplar pixel, output pixel, out)` writes
+    /// the `channels` values the block carries there. This is how a
+    /// time-lapse is rendered from one plan: every frame (or, with time
+    /// jitter, every block at its own time) uses the same blocks and seams.
+    pub fn render_with(&self, channels: usize, sample: impl Fn(usize, (usize, usize), (usize, usize), &mut [f32])) -> Image {
+        let (bw, bh) = self.block;
+        let mut out = Image::new(self.width, self.height, channels);
+        let mut value = vec![0.0f32; channels];
+        for (i, p) in self.placements.iter().enumerate() {
+            for y in 0..bh.min(self.height.saturating_sub(p.y)) {
+                for x in 0..bw.min(self.width.saturating_sub(p.x)) {
+                    let k = p.keep[y * bw + x];
+                    if k == 0.0 {
+                        continue;
+                    }
+                    let (ox, oy) = (p.x + x, p.y + y);
+                    sample(i, (p.source_x + x, p.source_y + y), (ox, oy), &mut value);
+                    let d = out.pixel_mut(ox, oy);
+                    for (d, v) in d.iter_mut().zip(&value) {
+                        *d = k * v + (1.0 - k) * *d;
+                    }
+                }
+            }
+        }
+        out
     }
 
     /// Per output pixel, the index of the placement it mostly came from.

@@ -1,0 +1,154 @@
+//! Reading image sequences (time-lapses): a folder of frames, ordered
+//! naturally by file name (`f2` before `f10`), or an animated GIF. Every
+//! frame must have the first frame's size and channels; the error names the
+//! first frame that does not.
+
+use super::io::{decode, load};
+use super::Image;
+use crate::error::{Error, Result};
+use std::cmp::Ordering;
+use std::path::{Path, PathBuf};
+
+/// File extensions read as frames from a folder.
+const FRAME_EXTENSIONS: [&str; 5] = ["png", "jpg", "jpeg", "exr", "gif"];
+
+/// A loaded sequence: its frames and where each came from.
+#[derive(Clone, Debug)]
+pub struct Sequence {
+    pub frames: Vec<Image>,
+    /// One name per frame: the file path, or `FILE.gif#N`.
+    pub names: Vec<String>,
+}
+
+impl Sequence {
+    /// Keep frames `range` (indices into the sequence, end exclusive), then
+    /// every `step`-th of them.
+    pub fn subsample(self, range: std::ops::Range<usize>, step: usize) -> Result<Sequence> {
+        let n = self.frames.len();
+        if step == 0 {
+            return Err(Error::invalid("the frame step must be at least 1"));
+        }
+        if range.start >= range.end || range.end > n {
+            return Err(Error::invalid(format!(
+                "frames {}..{} are outside the sequence's {n} frames (0..{n})",
+                range.start, range.end
+            )));
+        }
+        let keep = |i: &usize| range.contains(i) && (i - range.start) % step == 0;
+        let frames = self.frames.into_iter().enumerate().filter(|(i, _)| keep(i)).map(|(_, f)| f).collect();
+        let names = self.names.into_iter().enumerate().filter(|(i, _)| keep(i)).map(|(_, f)| f).collect();
+        Ok(Sequence { frames, names })
+    }
+}
+
+/// Load a sequence from a folder of frames or an animated GIF.
+pub fn load_sequence(path: impl AsRef<Path>) -> Result<Sequence> {
+    let path = path.as_ref();
+    let seq = if path.is_dir() { load_folder(path)? } else { load_gif(path)? };
+    check_frames(&seq)?;
+    Ok(seq)
+}
+
+/// Check that every frame has the first frame's size and channels.
+pub fn check_frames(seq: &Sequence) -> Result<()> {
+    let first = seq.frames.first().ok_or_else(|| Error::invalid("the sequence has no frames"))?;
+    for (f, name) in seq.frames.iter().zip(&seq.names) {
+        if f.size() != first.size() || f.channels() != first.channels() {
+            return Err(Error::invalid(format!(
+                "frame {name} is {}x{} with {} channels but the first frame is {}x{} with {}",
+                f.width(),
+                f.height(),
+                f.channels(),
+                first.width(),
+                first.height(),
+                first.channels()
+            )));
+        }
+    }
+    Ok(())
+}
+
+fn load_folder(dir: &Path) -> Result<Sequence> {
+    let entries = std::fs::read_dir(dir).map_err(|source| Error::Read { path: dir.into(), source })?;
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.is_file()
+                && p.extension().and_then(|e| e.to_str()).is_some_and(|e| FRAME_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+        })
+        .collect();
+    if files.is_empty() {
+        return Err(Error::invalid(format!("{} holds no frames (PNG, JPEG, EXR or GIF files)", dir.display())));
+    }
+    files.sort_by(|a, b| natural_cmp(&a.to_string_lossy(), &b.to_string_lossy()));
+    let frames = files.iter().map(load).collect::<Result<Vec<_>>>()?;
+    Ok(Sequence { frames, names: files.iter().map(|p| p.display().to_string()).collect() })
+}
+
+fn load_gif(path: &Path) -> Result<Sequence> {
+    use image::AnimationDecoder;
+    let bytes = std::fs::read(path).map_err(|source| Error::Read { path: path.into(), source })?;
+    let bad = |reason: String| Error::Decode { path: path.into(), reason };
+    if !bytes.starts_with(b"GIF8") {
+        // A single still image is a one-frame sequence.
+        let img = decode(&bytes, path)?;
+        return Ok(Sequence { frames: vec![img], names: vec![path.display().to_string()] });
+    }
+    let decoder = image::codecs::gif::GifDecoder::new(std::io::Cursor::new(&bytes)).map_err(|e| bad(e.to_string()))?;
+    let frames = decoder.into_frames().collect_frames().map_err(|e| bad(e.to_string()))?;
+    let images = frames
+        .into_iter()
+        .map(|f| {
+            let rgba = f.into_buffer();
+            let (w, h) = (rgba.width() as usize, rgba.height() as usize);
+            let data = rgba.into_raw().chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).map(|b| b as f32 / 255.0).collect();
+            Image::from_data(w, h, 3, data)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let names = (0..images.len()).map(|i| format!("{}#{i}", path.display())).collect();
+    Ok(Sequence { frames: images, names })
+}
+
+/// Natural order: runs of digits compare as numbers (`f2` < `f10`).
+pub fn natural_cmp(a: &str, b: &str) -> Ordering {
+    let (mut a, mut b) = (a.as_bytes(), b.as_bytes());
+    loop {
+        match (a.first(), b.first()) {
+            (None, None) => return Ordering::Equal,
+            (None, _) => return Ordering::Less,
+            (_, None) => return Ordering::Greater,
+            (Some(x), Some(y)) if x.is_ascii_digit() && y.is_ascii_digit() => {
+                let run = |s: &[u8]| s.iter().take_while(|c| c.is_ascii_digit()).count();
+                let (na, nb) = (run(a), run(b));
+                let (da, db) = (&a[..na], &b[..nb]);
+                let strip = |d: &[u8]| -> usize { d.iter().take_while(|&&c| c == b'0').count().min(d.len().saturating_sub(1)) };
+                let (ta, tb) = (&da[strip(da)..], &db[strip(db)..]);
+                let ord = ta.len().cmp(&tb.len()).then(ta.cmp(tb)).then(na.cmp(&nb));
+                if ord != Ordering::Equal {
+                    return ord;
+                }
+                a = &a[na..];
+                b = &b[nb..];
+            }
+            (Some(x), Some(y)) => {
+                if x != y {
+                    return x.cmp(y);
+                }
+                a = &a[1..];
+                b = &b[1..];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn natural_order_reads_numbers_as_numbers() {
+        let mut v = vec!["f10.png", "f2.png", "f1.png", "f02b.png", "g1.png"];
+        v.sort_by(|a, b| natural_cmp(a, b));
+        assert_eq!(v, ["f1.png", "f2.png", "f02b.png", "f10.png", "g1.png"]);
+    }
+}

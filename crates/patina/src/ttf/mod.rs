@@ -1,0 +1,211 @@
+//! Time-varying texture synthesis from a time-lapse (Enrique, Koudelka,
+//! Belhumeur, Dorsey, Nayar, Ramamoorthi, "Time-varying textures:
+//! definition, acquisition and synthesis"): a larger surface that changes
+//! the way a small time-lapsed sample did, with no flicker and no event
+//! happening in lockstep everywhere.
+//!
+//! - Cuboid quilting (section 5.1): the engine's image quilting, run once on
+//!   a per-pixel description of each pixel's whole time column, so the
+//!   overlap error is summed over all frames (eq. 3) and one minimum-error
+//!   seam serves every frame; each frame is then rendered from the same
+//!   plan, copying whole time columns ([`crate::synth::QuiltPlan::render_with`]).
+//! - SVD-compressed comparison (section 5.2, [`svd`]): that description is
+//!   the top-k SVD coefficients of each pixel's time series, weighted by the
+//!   singular values; `rank = 0` compares all frames instead.
+//! - Elongated blocks (section 5.3): any block width and height.
+//! - Time jitter (eqs. 6-7, [`warp`]) and rate maps (section 6, [`rate`]).
+//! - Low-frequency normalisation (section 5.3, [`flatten`]).
+
+pub mod flatten;
+pub mod rate;
+pub mod svd;
+pub mod warp;
+
+pub use rate::RateMap;
+pub use svd::TemporalBasis;
+pub use warp::TimeWarp;
+
+use crate::error::{Error, Result};
+use crate::image::Image;
+use crate::rng;
+use crate::synth::{PatchMetric, Progress, QuiltParams, QuiltPlan, Synthesis};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Every parameter of the method, with the paper's defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct TtfParams {
+    /// k, singular vectors kept for block comparison (section 5.2); 0
+    /// compares every frame (slow; for checking).
+    pub rank: usize,
+    /// Block and overlap sizes (elongated blocks allowed, section 5.3),
+    /// candidate tolerance and seams.
+    pub quilt: QuiltParams,
+    /// E, the most frames a block's time may drift from the output's (eq. 7); 0 = no jitter.
+    pub jitter: f32,
+    /// Divide the sequence by its low-frequency lighting before synthesis (section 5.3).
+    pub flatten: bool,
+    /// With `flatten`: multiply the lighting back into the result.
+    pub keep_gradient: bool,
+    /// Low-pass sigma for `flatten`, as a fraction of the larger side.
+    pub flatten_sigma: f32,
+}
+
+impl Default for TtfParams {
+    fn default() -> Self {
+        TtfParams { rank: 15, quilt: QuiltParams::default(), jitter: 0.0, flatten: false, keep_gradient: false, flatten_sigma: 0.125 }
+    }
+}
+
+/// What the SVD kept.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Compression {
+    pub rank: usize,
+    /// ||A - A_k||_F / ||A||_F.
+    pub relative_rms: f64,
+    /// All singular values, largest first.
+    pub singular_values: Vec<f64>,
+}
+
+/// The result of [`synthesize`].
+#[derive(Clone, Debug)]
+pub struct Ttf {
+    /// The output frames (as many as the input, or as the rate map sets).
+    pub frames: Vec<Image>,
+    /// Blocks and seams, shared by every frame.
+    pub plan: QuiltPlan,
+    /// Each block's time warp (identity without jitter), in plan order.
+    pub warps: Vec<TimeWarp>,
+    /// `None` when every frame was compared (`rank = 0`).
+    pub compression: Option<Compression>,
+}
+
+/// Synthesize a `width` x `height` time-varying texture from `frames`.
+/// With a `rate` map (the output's size), each pixel runs at its own speed.
+pub fn synthesize(
+    frames: &[Image],
+    (width, height): (usize, usize),
+    params: &TtfParams,
+    rate: Option<&RateMap>,
+    seed: u64,
+    progress: Option<Progress>,
+) -> Result<Ttf> {
+    let n = check_input(frames, (width, height), params, rate)?;
+    let report = |done: u64| {
+        if let Some(p) = progress {
+            p(done, 100);
+        }
+    };
+    let lighting = params.flatten.then(|| flatten::Lighting::estimate(frames, params.flatten_sigma));
+    let flat = lighting.as_ref().map(|l| l.divide(frames));
+    let frames = flat.as_deref().unwrap_or(frames);
+    let (features, compression) = if params.rank == 0 {
+        (stack(frames)?, None)
+    } else {
+        let basis = TemporalBasis::new(frames, params.rank)?;
+        let c = Compression { rank: basis.rank, relative_rms: basis.relative_rms(), singular_values: basis.singular_values.clone() };
+        (basis.coefficients(frames)?, Some(c))
+    };
+    report(10);
+    // Eq. (3): the cost sums squared differences over every frame; dividing
+    // by n only sets its scale.
+    let metric = PatchMetric::ssd(vec![1.0 / n as f32; features.channels()]);
+    let quilt_progress = |d: u64, t: u64| report(10 + 50 * d / t.max(1));
+    let quilted = Synthesis::new(&features)
+        .size(width, height)
+        .metric(metric)
+        .seed(rng::derive(seed, &[1]))
+        .progress(&quilt_progress)
+        .quilt(&params.quilt)?;
+    drop(features);
+    let plan = quilted.plan;
+    let warps: Vec<TimeWarp> =
+        (0..plan.placements.len()).map(|i| TimeWarp::jittered(n, params.jitter, rng::derive(seed, &[2, i as u64]))).collect();
+    let out_frames = match rate {
+        Some(r) => r.output_frames(n)?,
+        None => n,
+    };
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let mut out: Vec<Image> = (0..out_frames)
+        .into_par_iter()
+        .map(|t| {
+            let img = plan.render_with(frames[0].channels(), |i, (sx, sy), (ox, oy), px| {
+                let s = match rate {
+                    Some(r) => t as f32 * r.rate(ox, oy),
+                    None => t as f32,
+                };
+                sample(frames, sx, sy, warps[i].at(s), px);
+            });
+            let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            report(60 + 40 * d / out_frames as u64);
+            img
+        })
+        .collect();
+    if let (Some(l), true) = (&lighting, params.keep_gradient) {
+        l.restore(&mut out)?;
+    }
+    Ok(Ttf { frames: out, plan, warps, compression })
+}
+
+/// Validate the inputs; the frame count.
+fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfParams, rate: Option<&RateMap>) -> Result<usize> {
+    let first = frames.first().ok_or_else(|| Error::invalid("the sequence has no frames"))?;
+    if frames.iter().any(|f| f.size() != first.size() || f.channels() != first.channels()) {
+        return Err(Error::invalid("the frames of a sequence must share one size and channel count"));
+    }
+    if !params.jitter.is_finite() || params.jitter < 0.0 {
+        return Err(Error::invalid(format!("the time jitter must be a finite number >= 0, got {}", params.jitter)));
+    }
+    if !(params.flatten_sigma > 0.0 && params.flatten_sigma.is_finite()) {
+        return Err(Error::invalid("the flattening sigma must be positive"));
+    }
+    if let Some(r) = rate {
+        if r.image().size() != (width, height) {
+            let (rw, rh) = r.image().size();
+            return Err(Error::invalid(format!("the rate map is {rw}x{rh} but the output is {width}x{height}")));
+        }
+    }
+    let n = frames.len();
+    let out_frames = rate.map_or(Ok(n), |r| r.output_frames(n))?;
+    let c = first.channels() as u128;
+    let bytes = 4 * c * ((out_frames as u128) * (width * height) as u128 + 2 * (n * first.width() * first.height()) as u128);
+    if let Some(avail) = crate::synth::problem::available_memory() {
+        if bytes > u128::from(avail) {
+            return Err(Error::TooLarge {
+                what: format!("{out_frames} frames of {width}x{height}"),
+                need_mib: (bytes >> 20) as u64,
+                available_mib: avail >> 20,
+            });
+        }
+    }
+    crate::synth::problem::check_memory("time-lapse quilting", width, height, first.channels() * params.rank.clamp(1, n))?;
+    Ok(n)
+}
+
+/// All frames stacked as channels (channel c * n + f = frame f, channel c):
+/// the uncompressed description of each pixel's time column.
+fn stack(frames: &[Image]) -> Result<Image> {
+    let (w, h, c, n) = (frames[0].width(), frames[0].height(), frames[0].channels(), frames.len());
+    let data = (0..w * h)
+        .flat_map(|p| (0..c).flat_map(move |ch| frames.iter().map(move |f| f.data()[p * c + ch])))
+        .collect();
+    Image::from_data(w, h, c * n, data)
+}
+
+/// Pixel (x, y) at source time `tau`, blending the two nearest frames.
+fn sample(frames: &[Image], x: usize, y: usize, tau: f32, out: &mut [f32]) {
+    let last = frames.len() - 1;
+    let tau = tau.clamp(0.0, last as f32);
+    let i = (tau as usize).min(last);
+    let w = tau - i as f32;
+    let a = frames[i].pixel(x, y);
+    if w <= 0.0 || i == last {
+        out.copy_from_slice(a);
+        return;
+    }
+    let b = frames[i + 1].pixel(x, y);
+    for ((o, p), q) in out.iter_mut().zip(a).zip(b) {
+        *o = p + w * (q - p);
+    }
+}
