@@ -1,0 +1,167 @@
+//! Time-varying texture synthesis (Enrique et al.) on time-lapses the tests
+//! make: rust spots appearing and growing at random times on brushed steel.
+
+use patina::image::Image;
+use patina::samples::rusting_timelapse;
+use patina::synth::QuiltParams;
+use patina::ttf::{synthesize, RateMap, Ttf, TtfParams};
+
+fn run(frames: &[Image], size: (usize, usize), params: &TtfParams, rate: Option<&RateMap>, seed: u64) -> Ttf {
+    synthesize(frames, size, params, rate, seed, None).unwrap()
+}
+
+/// Mean absolute change between consecutive frames.
+fn flicker(frames: &[Image]) -> f64 {
+    let mut sum = 0.0f64;
+    let mut n = 0usize;
+    for w in frames.windows(2) {
+        for (a, b) in w[0].data().iter().zip(w[1].data()) {
+            sum += f64::from((a - b).abs());
+            n += 1;
+        }
+    }
+    sum / n as f64
+}
+
+#[test]
+fn whole_time_columns_are_copied_along_one_seam_without_flicker() {
+    let input = rusting_timelapse(64, 64, 60, 3);
+    let out = run(&input, (128, 112), &TtfParams::default(), None, 9);
+    assert_eq!(out.frames.len(), 60);
+    assert!(out.compression.as_ref().unwrap().relative_rms < 0.05);
+    // Every output pixel of every frame is its exemplar pixel at the same
+    // time: the blocks and seams are the same in all frames.
+    let from = out.plan.source_positions();
+    for (t, frame) in out.frames.iter().enumerate() {
+        for (i, &(sx, sy)) in from.iter().enumerate() {
+            let (x, y) = (i % 128, i / 128);
+            assert_eq!(frame.pixel(x, y), input[t].pixel(sx as usize, sy as usize), "frame {t} pixel ({x}, {y})");
+        }
+    }
+    // The blocks come from many places, not one verbatim copy.
+    let sources: std::collections::BTreeSet<(usize, usize)> = out.plan.placements.iter().map(|p| (p.source_x, p.source_y)).collect();
+    assert!(sources.len() * 2 > out.plan.placements.len(), "{} sources for {} blocks", sources.len(), out.plan.placements.len());
+    let (fi, fo) = (flicker(&input), flicker(&out.frames));
+    assert!(fo <= 1.5 * fi && fi <= 1.5 * fo, "frame-to-frame change: input {fi}, output {fo}");
+}
+
+#[test]
+fn compressed_and_full_comparisons_choose_equally_good_blocks() {
+    let input = rusting_timelapse(48, 48, 30, 4);
+    let cost = |out: &Ttf| -> f64 {
+        // Mean squared difference across the seams, over every frame: the
+        // error eq. (3) minimises, measured on the real frames.
+        let mask = out.plan.overlap_mask();
+        let mut s = 0.0f64;
+        let mut n = 0usize;
+        for f in &out.frames {
+            for y in 1..f.height() {
+                for x in 1..f.width() {
+                    if mask.get(x, y) {
+                        for (a, b) in f.pixel(x, y).iter().zip(f.pixel(x - 1, y)) {
+                            s += f64::from(a - b).powi(2);
+                        }
+                        n += 1;
+                    }
+                }
+            }
+        }
+        s / n as f64
+    };
+    let full = run(&input, (96, 96), &TtfParams { rank: 0, ..TtfParams::default() }, None, 2);
+    let svd = run(&input, (96, 96), &TtfParams::default(), None, 2);
+    assert!(full.compression.is_none());
+    let (cf, cs) = (cost(&full), cost(&svd));
+    assert!(cs <= 1.25 * cf, "seam error with SVD {cs} vs all frames {cf}");
+}
+
+#[test]
+fn jitter_shows_one_source_blocks_events_at_different_times_within_e() {
+    // One 40x40 block is the whole exemplar, so every output block is a copy
+    // of it; its single event is a step at frame 25.
+    let tex = patina::samples::blotches(40, 40, 5);
+    let input: Vec<Image> = (0..50).map(|t| if t < 25 { tex.clone() } else { tex.map(|v| v + 0.5) }).collect();
+    let params = |jitter: f32| TtfParams { jitter, quilt: QuiltParams { block: Some((40, 40)), overlap: Some((8, 8)), ..QuiltParams::default() }, ..TtfParams::default() };
+    let event_times = |out: &Ttf| -> Vec<usize> {
+        out.plan
+            .placements
+            .iter()
+            .map(|p| {
+                let (x, y) = (p.x + 20, p.y + 20);
+                let before = tex.pixel(20, 20)[0];
+                out.frames.iter().position(|f| f.pixel(x.min(f.width() - 1), y.min(f.height() - 1))[0] > before + 0.25).unwrap()
+            })
+            .collect()
+    };
+    let e = 4.0;
+    let jittered = run(&input, (160, 160), &params(e), None, 1);
+    assert!(jittered.plan.placements.len() >= 9);
+    let times = event_times(&jittered);
+    let distinct: std::collections::BTreeSet<usize> = times.iter().copied().collect();
+    assert!(distinct.len() >= 3, "event times {times:?}");
+    assert!(times.iter().all(|&t| (25 - e as usize - 1..=25 + e as usize + 1).contains(&t)), "{times:?}");
+    for w in &jittered.warps {
+        let f = w.samples();
+        assert_eq!(f[0], 0.0);
+        assert!(f.windows(2).all(|p| p[1] >= p[0]));
+        assert!(f.iter().enumerate().all(|(t, v)| (v - t as f32).abs() <= e + 1e-4));
+    }
+    let plain = event_times(&run(&input, (160, 160), &params(0.0), None, 1));
+    assert!(plain.iter().all(|&t| t == 25), "{plain:?}");
+}
+
+#[test]
+fn a_rate_of_0_freezes_and_a_rate_of_2_runs_twice_as_fast() {
+    let input = rusting_timelapse(48, 48, 61, 6);
+    let (w, h) = (96, 80);
+    let paint = Image::from_fn(w, h, 1, |x, _, p| p[0] = if x < w / 2 { 0.0 } else { 1.0 });
+    let rate = RateMap::from_image(&paint, 2.0).unwrap();
+    let out = run(&input, (w, h), &TtfParams::default(), Some(&rate), 8);
+    assert_eq!(out.frames.len(), 31, "the fastest pixel reaches frame 60 at output frame 30");
+    let from = out.plan.source_positions();
+    for (t, frame) in out.frames.iter().enumerate() {
+        for (i, &(sx, sy)) in from.iter().enumerate() {
+            let (x, y) = (i % w, i / w);
+            let want_t = if x < w / 2 { 0 } else { 2 * t };
+            assert_eq!(frame.pixel(x, y), input[want_t].pixel(sx as usize, sy as usize), "frame {t} pixel ({x}, {y})");
+        }
+    }
+    // A map of the wrong size is refused by name.
+    let small = RateMap::from_image(&Image::new(10, 10, 1), 1.0).unwrap();
+    let err = synthesize(&input, (w, h), &TtfParams::default(), Some(&small), 0, None).unwrap_err();
+    assert!(err.to_string().contains("rate map"), "{err}");
+}
+
+#[test]
+fn elongated_blocks_flattening_and_thread_count_independence() {
+    let input = rusting_timelapse(64, 40, 20, 7);
+    let params = TtfParams {
+        jitter: 2.0,
+        flatten: true,
+        keep_gradient: true,
+        quilt: QuiltParams { block: Some((48, 12)), overlap: Some((6, 3)), ..QuiltParams::default() },
+        ..TtfParams::default()
+    };
+    let with = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| run(&input, (150, 70), &params, None, 11))
+    };
+    let (a, b) = (with(1), with(2));
+    assert_eq!(a.plan.block, (48, 12));
+    assert_eq!(a.frames.len(), 20);
+    assert!(a.frames.iter().zip(&b.frames).all(|(x, y)| x == y), "frames differ between 1 and 2 threads");
+    assert_eq!(a.warps, b.warps);
+}
+
+#[test]
+fn bad_sequences_are_refused_by_name() {
+    let mut input = rusting_timelapse(32, 32, 5, 1);
+    input[3] = Image::new(31, 32, 3);
+    assert!(synthesize(&input, (64, 64), &TtfParams::default(), None, 0, None).is_err());
+    let input = rusting_timelapse(32, 32, 5, 1);
+    let too_big = TtfParams { quilt: QuiltParams { block: Some((40, 8)), ..QuiltParams::default() }, ..TtfParams::default() };
+    let err = synthesize(&input, (64, 64), &too_big, None, 0, None).unwrap_err();
+    assert!(err.to_string().contains("block"), "{err}");
+    let negative = TtfParams { jitter: -1.0, ..TtfParams::default() };
+    assert!(synthesize(&input, (64, 64), &negative, None, 0, None).is_err());
+}
