@@ -5,6 +5,7 @@ mod demo;
 mod output;
 mod progress;
 mod synth;
+mod ttf;
 mod weather;
 
 use clap::{Parser, Subcommand};
@@ -31,6 +32,8 @@ enum Command {
     Intact(weather::SingleArgs),
     /// Carry one texture's weathering onto another (Bellini et al. 2016, section 7).
     WeatherTransfer(weather::TransferArgs),
+    /// Synthesize a larger time-lapse from a small one (Enrique, Koudelka et al.): whole time columns quilted along one seam.
+    Ttf(ttf::Args),
     /// Run patina on built-in procedural samples, writing into ./patina-demo/.
     Demo(demo::Args),
 }
@@ -57,6 +60,7 @@ fn main() -> ExitCode {
         Command::AgeMap(a) => weather::run_age_map(a),
         Command::Intact(a) => weather::run_intact(a),
         Command::WeatherTransfer(a) => weather::run_transfer(a),
+        Command::Ttf(a) => ttf::run(a),
         Command::Demo(a) => demo::run(a),
     };
     match result {

@@ -1,7 +1,10 @@
 //! Output conventions: manifests beside outputs, never writing over an
 //! input, and size parsing shared by the subcommands.
 
+use patina::image::io::{save_gif, save_png, BitDepth};
+use patina::image::Image;
 use patina::{Error, Result};
+use rayon::prelude::*;
 use serde::Serialize;
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -124,4 +127,39 @@ pub fn parse_size(s: &str) -> std::result::Result<(usize, usize), String> {
         return Err(format!("size {w}x{h} is empty: both sides must be at least 1"));
     }
     Ok((w, h))
+}
+
+/// Create `dir` (and its parents).
+pub fn mkdir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|source| Error::Write { path: dir.into(), source })
+}
+
+/// Write a sequence of (t, frame) under `dir`: frames/NNN.png (encoded in
+/// parallel) and sequence.gif, each recorded in the manifest.
+pub fn write_sequence(dir: &Path, frames: &[(f32, &Image)], gif_delay_ms: u32, manifest: &mut Manifest) -> Result<()> {
+    let frames_dir = dir.join("frames");
+    mkdir(&frames_dir)?;
+    let rels: Vec<PathBuf> = (0..frames.len()).map(|i| PathBuf::from("frames").join(format!("{i:03}.png"))).collect();
+    frames.par_iter().zip(&rels).try_for_each(|((_, f), rel)| save_png(f, dir.join(rel), BitDepth::Eight))?;
+    manifest.frames.extend(frames.iter().zip(rels).map(|((t, _), path)| FrameEntry { t: *t, path }));
+    let images: Vec<&Image> = frames.iter().map(|(_, f)| *f).collect();
+    save_gif(&images, dir.join("sequence.gif"), gif_delay_ms)?;
+    manifest.outputs.push("sequence.gif".into());
+    Ok(())
+}
+
+/// Paths inside `dir` that a sequence run writes.
+pub fn sequence_outputs(dir: &Path, frames: usize, extra: &[&str]) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = extra.iter().map(|n| dir.join(n)).collect();
+    v.extend((0..frames).map(|i| dir.join("frames").join(format!("{i:03}.png"))));
+    v.push(dir.join("sequence.gif"));
+    v.push(dir.join("manifest.json"));
+    v
+}
+
+/// [`check_outputs`] for the outputs whose folder already exists (the
+/// others cannot be inputs).
+pub fn refuse_overwrite(outputs: &[PathBuf], inputs: &[&Path]) -> Result<()> {
+    let outs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).filter(|p| p.parent().is_some_and(Path::is_dir)).collect();
+    check_outputs(&outs, inputs)
 }

@@ -2,9 +2,9 @@
 //! `patina weather-transfer`: texture weathering from a single image
 //! (Bellini et al. 2016).
 
-use crate::output::{check_outputs, manifest_path, FrameEntry, Manifest, Stopwatch};
+use crate::output::{check_outputs, manifest_path, mkdir, refuse_overwrite, sequence_outputs, write_sequence, Manifest, Stopwatch};
 use crate::progress::with_bar;
-use patina::image::io::{self, save_gif, save_png, BitDepth};
+use patina::image::io::{self, save_png, BitDepth};
 use patina::image::Image;
 use patina::weather::{self, age_map, intact, layers::Layers, transfer, Overrides, Stage, WeatherParams};
 use patina::{Error, Result};
@@ -13,6 +13,11 @@ use std::path::{Path, PathBuf};
 
 /// How long each frame of sequence.gif is shown.
 const GIF_DELAY_MS: u32 = 400;
+
+/// A weathering sequence as (t, frame) pairs for [`write_sequence`].
+fn timed(frames: &[weather::Frame]) -> Vec<(f32, &Image)> {
+    frames.iter().map(|f| (f.t, &f.image)).collect()
+}
 
 /// Flags of the age map and the intact texture, shared by the subcommands.
 #[derive(clap::Args, Clone)]
@@ -125,39 +130,6 @@ fn load_labels(method: &MethodArgs) -> Result<Option<Image>> {
     method.labels.as_ref().map(io::load).transpose()
 }
 
-fn mkdir(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::Write { path: dir.into(), source })
-}
-
-/// Write a sequence: frames/NNN.png and sequence.gif under `dir`.
-fn write_sequence(dir: &Path, frames: &[weather::Frame], manifest: &mut Manifest) -> Result<()> {
-    let frames_dir = dir.join("frames");
-    mkdir(&frames_dir)?;
-    for (i, f) in frames.iter().enumerate() {
-        let rel = PathBuf::from("frames").join(format!("{i:03}.png"));
-        save_png(&f.image, dir.join(&rel), BitDepth::Eight)?;
-        manifest.frames.push(FrameEntry { t: f.t, path: rel });
-    }
-    let images: Vec<&Image> = frames.iter().map(|f| &f.image).collect();
-    save_gif(&images, dir.join("sequence.gif"), GIF_DELAY_MS)?;
-    manifest.outputs.push("sequence.gif".into());
-    Ok(())
-}
-
-/// Paths inside `dir` that a sequence run writes.
-fn sequence_outputs(dir: &Path, frames: usize, extra: &[&str]) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = extra.iter().map(|n| dir.join(n)).collect();
-    v.extend((0..frames).map(|i| dir.join("frames").join(format!("{i:03}.png"))));
-    v.push(dir.join("sequence.gif"));
-    v.push(dir.join("manifest.json"));
-    v
-}
-
-fn refuse_overwrite(outputs: &[PathBuf], inputs: &[&Path]) -> Result<()> {
-    let outs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).filter(|p| p.parent().is_some_and(Path::is_dir)).collect();
-    check_outputs(&outs, inputs)
-}
-
 pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let m = &args.method;
@@ -205,7 +177,7 @@ pub fn run(args: Args) -> Result<()> {
         save_png(&l.to_image(), args.out.join("layers.png"), BitDepth::Eight)?;
         manifest.outputs.push("layers.png".into());
     }
-    write_sequence(&args.out, &result.frames, &mut manifest)?;
+    write_sequence(&args.out, &timed(&result.frames), GIF_DELAY_MS, &mut manifest)?;
     manifest.timings_ms.insert("save".into(), clock.lap());
 
     let mut p = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
@@ -327,7 +299,7 @@ pub fn run_transfer(args: TransferArgs) -> Result<()> {
     mkdir(&args.out)?;
     let mut all = vec![weather::Frame { t: 0.0, image: target.clone() }];
     all.extend(frames);
-    write_sequence(&args.out, &all, &mut manifest)?;
+    write_sequence(&args.out, &timed(&all), GIF_DELAY_MS, &mut manifest)?;
     manifest.params = json!({ "frames": args.frames, "age": params.age, "intact": params.intact });
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.write(&args.out.join("manifest.json"))?;

@@ -136,6 +136,25 @@ pub fn roc_auc(scores: &[f32], labels: &[bool]) -> f32 {
     ((rank_sum - pos * (pos + 1.0) / 2.0) / (pos * neg)) as f32
 }
 
+/// Mean absolute change between consecutive frames of a sequence, over
+/// every pixel and channel: its temporal coherence (0 = still; flicker
+/// raises it). 0 for fewer than two frames.
+pub fn flicker(frames: &[Image]) -> f64 {
+    let mut sum = 0.0f64;
+    let mut n = 0usize;
+    for w in frames.windows(2) {
+        for (a, b) in w[0].data().iter().zip(w[1].data()) {
+            sum += f64::from((a - b).abs());
+            n += 1;
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        sum / n as f64
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

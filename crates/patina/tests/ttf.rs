@@ -2,25 +2,13 @@
 //! make: rust spots appearing and growing at random times on brushed steel.
 
 use patina::image::Image;
+use patina::metrics::flicker;
 use patina::samples::rusting_timelapse;
 use patina::synth::QuiltParams;
 use patina::ttf::{synthesize, RateMap, Ttf, TtfParams};
 
 fn run(frames: &[Image], size: (usize, usize), params: &TtfParams, rate: Option<&RateMap>, seed: u64) -> Ttf {
     synthesize(frames, size, params, rate, seed, None).unwrap()
-}
-
-/// Mean absolute change between consecutive frames.
-fn flicker(frames: &[Image]) -> f64 {
-    let mut sum = 0.0f64;
-    let mut n = 0usize;
-    for w in frames.windows(2) {
-        for (a, b) in w[0].data().iter().zip(w[1].data()) {
-            sum += f64::from((a - b).abs());
-            n += 1;
-        }
-    }
-    sum / n as f64
 }
 
 #[test]

@@ -39,6 +39,9 @@ pub struct TtfParams {
     /// k, singular vectors kept for block comparison (section 5.2); 0
     /// compares every frame (slow; for checking).
     pub rank: usize,
+    /// When set, k is instead the smallest rank whose relative RMS
+    /// reconstruction error is at most this (e.g. 0.05).
+    pub max_error: Option<f64>,
     /// Block and overlap sizes (elongated blocks allowed, section 5.3),
     /// candidate tolerance and seams.
     pub quilt: QuiltParams,
@@ -54,7 +57,7 @@ pub struct TtfParams {
 
 impl Default for TtfParams {
     fn default() -> Self {
-        TtfParams { rank: 15, quilt: QuiltParams::default(), jitter: 0.0, flatten: false, keep_gradient: false, flatten_sigma: 0.125 }
+        TtfParams { rank: 15, max_error: None, quilt: QuiltParams::default(), jitter: 0.0, flatten: false, keep_gradient: false, flatten_sigma: 0.125 }
     }
 }
 
@@ -100,12 +103,13 @@ pub fn synthesize(
     let lighting = params.flatten.then(|| flatten::Lighting::estimate(frames, params.flatten_sigma));
     let flat = lighting.as_ref().map(|l| l.divide(frames));
     let frames = flat.as_deref().unwrap_or(frames);
-    let (features, compression) = if params.rank == 0 {
+    let (features, compression) = if params.rank == 0 && params.max_error.is_none() {
         (stack(frames)?, None)
     } else {
-        let basis = TemporalBasis::new(frames, params.rank)?;
-        let c = Compression { rank: basis.rank, relative_rms: basis.relative_rms(), singular_values: basis.singular_values.clone() };
-        (basis.coefficients(frames)?, Some(c))
+        let basis = TemporalBasis::new(frames)?;
+        let rank = params.max_error.map_or(params.rank.min(n), |e| basis.rank_for(e));
+        let c = Compression { rank, relative_rms: basis.relative_rms(rank), singular_values: basis.singular_values.clone() };
+        (basis.coefficients(frames, rank)?, Some(c))
     };
     report(10);
     // Eq. (3): the cost sums squared differences over every frame; dividing
@@ -157,6 +161,9 @@ fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfPa
     if !params.jitter.is_finite() || params.jitter < 0.0 {
         return Err(Error::invalid(format!("the time jitter must be a finite number >= 0, got {}", params.jitter)));
     }
+    if params.max_error.is_some_and(|e| !(0.0..1.0).contains(&e)) {
+        return Err(Error::invalid("the SVD error target must be in [0, 1)"));
+    }
     if !(params.flatten_sigma > 0.0 && params.flatten_sigma.is_finite()) {
         return Err(Error::invalid("the flattening sigma must be positive"));
     }
@@ -179,7 +186,8 @@ fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfPa
             });
         }
     }
-    crate::synth::problem::check_memory("time-lapse quilting", width, height, first.channels() * params.rank.clamp(1, n))?;
+    let k = if params.rank == 0 || params.max_error.is_some() { n } else { params.rank.min(n) };
+    crate::synth::problem::check_memory("time-lapse quilting", width, height, first.channels() * k)?;
     Ok(n)
 }
 

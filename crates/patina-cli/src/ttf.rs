@@ -1,0 +1,250 @@
+//! `patina ttf`: time-varying texture synthesis from a time-lapse
+//! (Enrique, Koudelka et al.).
+
+use crate::output::{mkdir, parse_size, refuse_overwrite, sequence_outputs, write_sequence, Manifest, Stopwatch};
+use crate::progress::with_bar;
+use patina::image::io::{self, save_gif, save_png, BitDepth};
+use patina::image::sequence::{load_sequence, Sequence};
+use patina::image::Image;
+use patina::synth::QuiltParams;
+use patina::ttf::{self, RateMap, TtfParams};
+use patina::{Error, Result};
+use serde_json::json;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The time-lapse: a folder of frames (PNG, JPEG or EXR; ordered naturally by file name, so f2 comes before f10) or an animated GIF.
+    pub input: PathBuf,
+    /// Output folder: frames/NNN.png, sequence.gif, manifest.json (and compare.gif with --compare).
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Output size WxH [default: the rate, normal or height map's size when one is given, else twice the input's]
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
+    /// Use input frames A..B only (end exclusive, counted from 0; e.g. 10..60) [default: all]
+    #[arg(long, value_parser = parse_range)]
+    pub frames: Option<Range<usize>>,
+    /// Keep every K-th input frame (after --frames).
+    #[arg(long, default_value_t = 1)]
+    pub step: usize,
+    /// Singular vectors compared per colour channel (the SVD rank k of section 5.2); 0 compares every frame (slow).
+    #[arg(long, default_value_t = 15)]
+    pub rank: usize,
+    /// Instead of a fixed rank, the smallest rank whose relative RMS reconstruction error is at most this (e.g. 0.05).
+    #[arg(long, conflicts_with = "rank")]
+    pub max_error: Option<f64>,
+    /// Block size WxH; may be elongated, e.g. 320x64 for growing grass [default: a quarter of the input's smaller side, 8..64]
+    #[arg(long, value_parser = parse_size)]
+    pub block: Option<(usize, usize)>,
+    /// Overlap between neighbouring blocks, in pixels [default: a sixth of the block, at least 2]
+    #[arg(long)]
+    pub overlap: Option<usize>,
+    /// Candidate blocks: those within (1 + tolerance) x the best cost.
+    #[arg(long, default_value_t = 0.1)]
+    pub tolerance: f32,
+    /// Time jitter E (eqs. 6-7): each block's clock drifts randomly by at most E frames, so copies of one block do not change in lockstep; 0 = off.
+    #[arg(long, default_value_t = 0.0)]
+    pub jitter: f32,
+    /// Divide out the input's low-frequency lighting (e.g. a flash hot spot) before synthesis (section 5.3).
+    #[arg(long)]
+    pub flatten: bool,
+    /// With --flatten: multiply the lighting back into the output, stretched to its size.
+    #[arg(long, requires = "flatten")]
+    pub keep_gradient: bool,
+    /// Rate map: a greyscale image of the output's size; each pixel runs at luminance x --rate-scale times the input's speed (0 = frozen).
+    #[arg(long, conflicts_with_all = ["rate_light", "rate_curvature"])]
+    pub rate_map: Option<PathBuf>,
+    /// Rate from a point light at X,Y,Z (output pixels, Z above the surface): (cos theta / r^2)^2, scaled to 1 at its fastest.
+    #[arg(long, value_parser = parse_point, conflicts_with = "rate_curvature")]
+    pub rate_light: Option<[f32; 3]>,
+    /// Normal map for --rate-light (RGB, n = 2 rgb - 1; the output's size) [default: a flat surface]
+    #[arg(long, requires = "rate_light")]
+    pub normal_map: Option<PathBuf>,
+    /// Rate from a height map's curvature (the output's size): ridges change fastest, flats at half speed, hollows slowest.
+    #[arg(long)]
+    pub rate_curvature: Option<PathBuf>,
+    /// Multiplies the rate map (2 = twice as fast, and half as many frames).
+    #[arg(long, default_value_t = 1.0)]
+    pub rate_scale: f32,
+    /// Also write compare.gif: the input and the output side by side.
+    #[arg(long)]
+    pub compare: bool,
+    /// Milliseconds per frame in the GIFs.
+    #[arg(long, default_value_t = 80)]
+    pub gif_delay: u32,
+    /// Random seed; the same inputs and seed give identical outputs.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+fn parse_range(s: &str) -> std::result::Result<Range<usize>, String> {
+    let bad = || format!("'{s}' is not a frame range A..B (e.g. 10..60)");
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let (a, b): (usize, usize) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+    if a >= b {
+        return Err(format!("frame range {a}..{b} is empty"));
+    }
+    Ok(a..b)
+}
+
+fn parse_point(s: &str) -> std::result::Result<[f32; 3], String> {
+    let v: Vec<f32> = s.split(',').map(|p| p.trim().parse::<f32>()).collect::<std::result::Result<_, _>>().map_err(|_| format!("'{s}' is not X,Y,Z"))?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
+        _ => Err(format!("'{s}' is not X,Y,Z (three numbers)")),
+    }
+}
+
+/// The rate map the flags ask for, and the output size it implies.
+fn rate_map(args: &Args, size: Option<(usize, usize)>) -> Result<Option<RateMap>> {
+    let sized = |img: &Image, what: &str, path: &Path| -> Result<()> {
+        match size {
+            Some(s) if s != img.size() => Err(Error::invalid(format!(
+                "{what} {} is {}x{} but the output is {}x{}",
+                path.display(),
+                img.width(),
+                img.height(),
+                s.0,
+                s.1
+            ))),
+            _ => Ok(()),
+        }
+    };
+    let map = if let Some(p) = &args.rate_map {
+        let img = io::load(p)?;
+        sized(&img, "rate map", p)?;
+        Some(RateMap::from_image(&img, 1.0)?)
+    } else if let Some(light) = args.rate_light {
+        let normals = args.normal_map.as_ref().map(io::load).transpose()?;
+        if let (Some(n), Some(p)) = (&normals, &args.normal_map) {
+            sized(n, "normal map", p)?;
+        }
+        let (w, h) = size.or(normals.as_ref().map(Image::size)).ok_or_else(|| Error::invalid("--rate-light needs --size or --normal-map"))?;
+        Some(RateMap::from_light(w, h, light, normals.as_ref())?)
+    } else if let Some(p) = &args.rate_curvature {
+        let img = io::load(p)?;
+        sized(&img, "height map", p)?;
+        Some(RateMap::from_curvature(&img)?)
+    } else {
+        None
+    };
+    map.map(|m| m.scaled(args.rate_scale)).transpose()
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let mut manifest = Manifest::new("ttf", args.seed);
+    if args.step == 0 {
+        return Err(Error::invalid("--step must be at least 1"));
+    }
+    let mut seq = load_sequence(&args.input)?;
+    if let Some(r) = &args.frames {
+        seq = seq.subsample(r.clone(), args.step)?;
+    } else if args.step > 1 {
+        let n = seq.frames.len();
+        seq = seq.subsample(0..n, args.step)?;
+    }
+    let Sequence { frames, names } = seq;
+    let rate = rate_map(&args, args.size)?;
+    let (iw, ih) = frames[0].size();
+    let size = args.size.or(rate.as_ref().map(|r| r.image().size())).unwrap_or((2 * iw, 2 * ih));
+    let out_frames = rate.as_ref().map_or(Ok(frames.len()), |r| r.output_frames(frames.len()))?;
+    let mut inputs: Vec<PathBuf> = vec![args.input.clone()];
+    inputs.extend(names.iter().map(PathBuf::from).filter(|p| p.is_file()));
+    inputs.extend([&args.rate_map, &args.normal_map, &args.rate_curvature].into_iter().flatten().cloned());
+    let input_refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    refuse_overwrite(&sequence_outputs(&args.out, out_frames, &["compare.gif"]), &input_refs)?;
+    manifest.timings_ms.insert("load".into(), clock.lap());
+
+    let params = TtfParams {
+        rank: args.rank,
+        max_error: args.max_error,
+        quilt: QuiltParams {
+            block: args.block,
+            overlap: args.overlap.map(|o| (o, o)),
+            tolerance: args.tolerance,
+            ..QuiltParams::default()
+        },
+        jitter: args.jitter,
+        flatten: args.flatten,
+        keep_gradient: args.keep_gradient,
+        ..TtfParams::default()
+    };
+    let result = with_bar("ttf", |report| ttf::synthesize(&frames, size, &params, rate.as_ref(), args.seed, Some(report)))?;
+    manifest.timings_ms.insert("synthesize".into(), clock.lap());
+
+    mkdir(&args.out)?;
+    let timed: Vec<(f32, &Image)> = result.frames.iter().enumerate().map(|(t, f)| (t as f32, f)).collect();
+    write_sequence(&args.out, &timed, args.gif_delay, &mut manifest)?;
+    if args.compare {
+        let n = frames.len();
+        let pairs: Vec<Image> = (0..result.frames.len())
+            .map(|t| {
+                let src = if result.frames.len() > 1 { (t * (n - 1) + (result.frames.len() - 1) / 2) / (result.frames.len() - 1) } else { 0 };
+                side_by_side(&frames[src.min(n - 1)], &result.frames[t])
+            })
+            .collect();
+        save_gif(&pairs.iter().collect::<Vec<_>>(), args.out.join("compare.gif"), args.gif_delay)?;
+        manifest.outputs.push("compare.gif".into());
+    }
+    if let Some(r) = &rate {
+        save_png(&normalised(r.image()), args.out.join("rate_map.png"), BitDepth::Eight)?;
+        manifest.outputs.push("rate_map.png".into());
+    }
+    manifest.timings_ms.insert("save".into(), clock.lap());
+
+    let mut p = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
+    p["size"] = json!([size.0, size.1]);
+    p["block_used"] = json!([result.plan.block.0, result.plan.block.1]);
+    p["overlap_used"] = json!([result.plan.overlap.0, result.plan.overlap.1]);
+    p["input_frames"] = json!(frames.len());
+    p["frames_range"] = json!(args.frames.as_ref().map(|r| [r.start, r.end]));
+    p["step"] = json!(args.step);
+    p["rate"] = json!(match (&args.rate_map, args.rate_light, &args.rate_curvature) {
+        (Some(f), _, _) => json!({ "map": f, "scale": args.rate_scale }),
+        (_, Some(l), _) => json!({ "light": l, "normal_map": args.normal_map, "scale": args.rate_scale }),
+        (_, _, Some(f)) => json!({ "curvature": f, "scale": args.rate_scale }),
+        _ => serde_json::Value::Null,
+    });
+    manifest.params = p;
+    if let Some(c) = &result.compression {
+        manifest.metrics.insert("svd_rank".into(), json!(c.rank));
+        manifest.metrics.insert("svd_relative_rms".into(), json!(c.relative_rms));
+        manifest.metrics.insert("singular_values".into(), json!(c.singular_values.iter().take(32).collect::<Vec<_>>()));
+    }
+    manifest.metrics.insert("flicker_input".into(), json!(patina::metrics::flicker(&frames)));
+    manifest.metrics.insert("flicker_output".into(), json!(patina::metrics::flicker(&result.frames)));
+    manifest.inputs = vec![args.input.clone()];
+    manifest.inputs.extend([&args.rate_map, &args.normal_map, &args.rate_curvature].into_iter().flatten().cloned());
+    manifest.write(&args.out.join("manifest.json"))?;
+    eprintln!("patina ttf: wrote {} frames of {}x{} to {}", result.frames.len(), size.0, size.1, args.out.display());
+    Ok(())
+}
+
+/// A rate map scaled to [0, 1] for viewing.
+fn normalised(img: &Image) -> Image {
+    let max = img.value_range().1.max(1e-12);
+    img.map(|v| v / max)
+}
+
+/// The input frame (top left) beside the output frame, on dark grey.
+fn side_by_side(input: &Image, output: &Image) -> Image {
+    const GAP: usize = 8;
+    let c = output.channels();
+    let (w, h) = (input.width() + GAP + output.width(), input.height().max(output.height()));
+    Image::from_fn(w, h, c, |x, y, p| {
+        let src = if x < input.width() && y < input.height() {
+            Some(input.pixel(x, y))
+        } else if x >= input.width() + GAP && y < output.height() {
+            Some(output.pixel(x - input.width() - GAP, y))
+        } else {
+            None
+        };
+        match src {
+            Some(s) => p.iter_mut().zip(s.iter().cycle()).for_each(|(d, v)| *d = *v),
+            None => p.iter_mut().for_each(|d| *d = 0.15),
+        }
+    })
+}
