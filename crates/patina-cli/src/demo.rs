@@ -1,13 +1,13 @@
 //! `patina demo`: the whole pipeline on samples patina makes itself.
 
 use crate::output::{Manifest, Stopwatch};
-use clap::Parser;
-use std::ffi::OsStr;
 use crate::progress::with_bar;
+use clap::Parser;
 use patina::image::io::{save_png, BitDepth};
 use patina::synth::{OptimizeParams, QuiltParams, Synthesis};
 use patina::{metrics, samples, Error, Result};
 use serde_json::json;
+use std::ffi::OsStr;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -29,7 +29,8 @@ pub fn run(args: Args) -> Result<()> {
     manifest.timings_ms.insert("make_exemplar".into(), clock.lap());
 
     let mut optimize = OptimizeParams::default();
-    let optimized = with_bar("optimize", |report| Synthesis::new(&exemplar).size(w, h).seed(args.seed).progress(report).optimize(&optimize))?;
+    let optimized =
+        with_bar("optimize", |report| Synthesis::new(&exemplar).size(w, h).seed(args.seed).progress(report).optimize(&optimize))?;
     optimize.levels = Some(optimized.levels);
     manifest.timings_ms.insert("optimize".into(), clock.lap());
 
@@ -76,7 +77,8 @@ fn weather_demo(args: &Args) -> Result<()> {
     save_png(&input, &input_path, BitDepth::Eight)?;
     // Parsed like a command line, so the demo runs with the flags' defaults.
     let seed = args.seed.to_string();
-    let argv: [&OsStr; 6] = ["weather".as_ref(), input_path.as_os_str(), "--out".as_ref(), dir.as_os_str(), "--seed".as_ref(), seed.as_ref()];
+    let argv: [&OsStr; 6] =
+        ["weather".as_ref(), input_path.as_os_str(), "--out".as_ref(), dir.as_os_str(), "--seed".as_ref(), seed.as_ref()];
     let weather = WeatherCommand::try_parse_from(argv).map_err(|e| Error::Internal(format!("demo arguments: {e}")))?;
     crate::weather::run(weather.args)
 }

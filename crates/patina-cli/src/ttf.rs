@@ -90,7 +90,8 @@ fn parse_range(s: &str) -> std::result::Result<Range<usize>, String> {
 }
 
 fn parse_point(s: &str) -> std::result::Result<[f32; 3], String> {
-    let v: Vec<f32> = s.split(',').map(|p| p.trim().parse::<f32>()).collect::<std::result::Result<_, _>>().map_err(|_| format!("'{s}' is not X,Y,Z"))?;
+    let v: Vec<f32> =
+        s.split(',').map(|p| p.trim().parse::<f32>()).collect::<std::result::Result<_, _>>().map_err(|_| format!("'{s}' is not X,Y,Z"))?;
     match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
         _ => Err(format!("'{s}' is not X,Y,Z (three numbers)")),
@@ -121,7 +122,8 @@ fn rate_map(args: &Args, size: Option<(usize, usize)>) -> Result<Option<RateMap>
         if let (Some(n), Some(p)) = (&normals, &args.normal_map) {
             sized(n, "normal map", p)?;
         }
-        let (w, h) = size.or(normals.as_ref().map(Image::size)).ok_or_else(|| Error::invalid("--rate-light needs --size or --normal-map"))?;
+        let (w, h) =
+            size.or(normals.as_ref().map(Image::size)).ok_or_else(|| Error::invalid("--rate-light needs --size or --normal-map"))?;
         Some(RateMap::from_light(w, h, light, normals.as_ref())?)
     } else if let Some(p) = &args.rate_curvature {
         let img = io::load(p)?;
@@ -182,7 +184,8 @@ pub fn run(args: Args) -> Result<()> {
         let n = frames.len();
         let pairs: Vec<Image> = (0..result.frames.len())
             .map(|t| {
-                let src = if result.frames.len() > 1 { (t * (n - 1) + (result.frames.len() - 1) / 2) / (result.frames.len() - 1) } else { 0 };
+                let src =
+                    if result.frames.len() > 1 { (t * (n - 1) + (result.frames.len() - 1) / 2) / (result.frames.len() - 1) } else { 0 };
                 side_by_side(&frames[src.min(n - 1)], &result.frames[t])
             })
             .collect();

@@ -293,7 +293,14 @@ pub fn run_transfer(args: TransferArgs) -> Result<()> {
         report(1, total);
         let i = intact(&source, &a.map, None, &params.intact, m.seed)?;
         report(2, total);
-        transfer::transfer(&transfer::Source { image: &source, age: &a.map, intact: &i.image }, &target, &times, &params.intact.rebuild, m.seed, &|k| report(2 + k as u64, total))
+        transfer::transfer(
+            &transfer::Source { image: &source, age: &a.map, intact: &i.image },
+            &target,
+            &times,
+            &params.intact.rebuild,
+            m.seed,
+            &|k| report(2 + k as u64, total),
+        )
     })?;
     manifest.timings_ms.insert("transfer".into(), clock.lap());
     mkdir(&args.out)?;

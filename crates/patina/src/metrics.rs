@@ -20,11 +20,7 @@ fn nearest(from: &Image, to: &Image, patch: usize, exclude_self: Option<usize>, 
         return Err(Error::invalid(format!("metric patch size must be odd and >= 3, got {patch}")));
     }
     if from.channels() != to.channels() {
-        return Err(Error::invalid(format!(
-            "cannot compare images with {} and {} channels",
-            from.channels(),
-            to.channels()
-        )));
+        return Err(Error::invalid(format!("cannot compare images with {} and {} channels", from.channels(), to.channels())));
     }
     let r = patch / 2;
     let domain = SourceDomain::new(to.width(), to.height(), r, None)?;

@@ -3,8 +3,8 @@
 //! unit's indices, never from thread identity, so results do not depend on
 //! how rayon schedules the work.
 
-use rand::SeedableRng;
 pub use rand::Rng;
+use rand::SeedableRng;
 
 /// The generator used throughout patina (PCG-XSH-RR 64/32: fast, small
 /// state, good statistical quality).

@@ -45,7 +45,9 @@ fn enlargement_quality(out: &Image, ex: &Image) -> (bool, bool, String) {
 
 #[test]
 fn optimized_enlargement_is_coherent_and_complete() {
-    for (name, ex) in [("cobbles", samples::cobbles(96, 96, 4)), ("bricks", samples::bricks(96, 96, 4)), ("blotches", samples::blotches(96, 96, 4))] {
+    for (name, ex) in
+        [("cobbles", samples::cobbles(96, 96, 4)), ("bricks", samples::bricks(96, 96, 4)), ("blotches", samples::blotches(96, 96, 4))]
+    {
         let out = Synthesis::new(&ex).size(192, 192).seed(3).optimize(&OptimizeParams::default()).unwrap();
         let (coherent, complete, report) = enlargement_quality(&out.image, &ex);
         eprintln!("{name}: {report}");
@@ -83,7 +85,9 @@ fn continuation_fraction(plan: &QuiltPlan) -> f32 {
 fn quilting_boundary_cut_hides_seams_better_than_blending() {
     // Default block (32) and overlap (block / 6 = 5). Seams are measured with
     // 3 x 3 patches: wider ones reach past the overlap band and dilute it.
-    for (name, ex) in [("cobbles", samples::cobbles(128, 128, 5)), ("bricks", samples::bricks(128, 128, 5)), ("blotches", samples::blotches(128, 128, 5))] {
+    for (name, ex) in
+        [("cobbles", samples::cobbles(128, 128, 5)), ("bricks", samples::bricks(128, 128, 5)), ("blotches", samples::blotches(128, 128, 5))]
+    {
         let run = |cut: bool| {
             let p = QuiltParams { boundary_cut: cut, ..QuiltParams::default() };
             let q = Synthesis::new(&ex).size(256, 256).seed(9).quilt(&p).unwrap();
@@ -160,7 +164,8 @@ fn filling_a_hole_keeps_the_rest_and_matches_the_texture() {
             damaged.pixel_mut(x, y).copy_from_slice(&[1.0, 0.0, 1.0]);
         }
     }
-    let out = Synthesis::new(&damaged).fill(&damaged, &hole).source_mask(&allowed).seed(1).optimize(&OptimizeParams::default()).unwrap().image;
+    let out =
+        Synthesis::new(&damaged).fill(&damaged, &hole).source_mask(&allowed).seed(1).optimize(&OptimizeParams::default()).unwrap().image;
     for y in 0..96 {
         for x in 0..96 {
             if !hole.get(x, y) {

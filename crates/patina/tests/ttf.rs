@@ -69,7 +69,11 @@ fn jitter_shows_one_source_blocks_events_at_different_times_within_e() {
     // of it; its single event is a step at frame 25.
     let tex = patina::samples::blotches(40, 40, 5);
     let input: Vec<Image> = (0..50).map(|t| if t < 25 { tex.clone() } else { tex.map(|v| v + 0.5) }).collect();
-    let params = |jitter: f32| TtfParams { jitter, quilt: QuiltParams { block: Some((40, 40)), overlap: Some((8, 8)), ..QuiltParams::default() }, ..TtfParams::default() };
+    let params = |jitter: f32| TtfParams {
+        jitter,
+        quilt: QuiltParams { block: Some((40, 40)), overlap: Some((8, 8)), ..QuiltParams::default() },
+        ..TtfParams::default()
+    };
     let event_times = |out: &Ttf| -> Vec<usize> {
         out.plan
             .placements

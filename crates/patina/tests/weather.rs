@@ -68,7 +68,9 @@ fn tile_detection_finds_the_period_and_calls_gravel_stochastic() {
 
 #[test]
 fn the_intact_texture_drops_the_injected_weathering() {
-    for (base, kind) in [("tiles", Weathering::Rust), ("tiles", Weathering::Cracks), ("gravel", Weathering::Rust), ("gravel", Weathering::Stain)] {
+    for (base, kind) in
+        [("tiles", Weathering::Rust), ("tiles", Weathering::Cracks), ("gravel", Weathering::Rust), ("gravel", Weathering::Stain)]
+    {
         let original = clean(base);
         let (img, mask) = samples::weather(&original, kind, 0.1, 11);
         let age = age_map(&img, &AgeParams::default()).unwrap();
@@ -134,10 +136,16 @@ fn transfer_carries_rust_onto_a_clean_texture() {
     let target = samples::gravel(SIZE, SIZE, 2);
     let age = age_map(&source, &AgeParams::default()).unwrap();
     let s_intact = intact(&source, &age.map, None, &IntactParams::default(), 1).unwrap();
-    let frames = transfer::transfer(&transfer::Source { image: &source, age: &age.map, intact: &s_intact.image }, &target, &[0.5, 1.0], &Default::default(), 3, &|_| {}).unwrap();
-    let rusty = |img: &Image| {
-        img.data().chunks_exact(3).filter(|p| p[0] > 0.45 && p[0] - p[2] > 0.3).count() as f32 / (SIZE * SIZE) as f32
-    };
+    let frames = transfer::transfer(
+        &transfer::Source { image: &source, age: &age.map, intact: &s_intact.image },
+        &target,
+        &[0.5, 1.0],
+        &Default::default(),
+        3,
+        &|_| {},
+    )
+    .unwrap();
+    let rusty = |img: &Image| img.data().chunks_exact(3).filter(|p| p[0] > 0.45 && p[0] - p[2] > 0.3).count() as f32 / (SIZE * SIZE) as f32;
     let (before, half, full) = (rusty(&target), rusty(&frames[0].image), rusty(&frames[1].image));
     assert!(full > before + 0.03 && full >= half, "rust share: target {before:.3}, t = 0.5 {half:.3}, t = 1 {full:.3}");
     assert!(weathered_area(&frames[1].image, &target) >= weathered_area(&frames[0].image, &target));

@@ -252,11 +252,7 @@ pub fn encode_png(img: &Image, depth: BitDepth, out: &mut Vec<u8>) -> Result<()>
     };
     let bytes: Vec<u8> = match depth {
         BitDepth::Eight => img.data().iter().map(|&v| (v.clamp(0.0, 1.0) * 255.0).round() as u8).collect(),
-        BitDepth::Sixteen => img
-            .data()
-            .iter()
-            .flat_map(|&v| ((v.clamp(0.0, 1.0) * 65535.0).round() as u16).to_ne_bytes())
-            .collect(),
+        BitDepth::Sixteen => img.data().iter().flat_map(|&v| ((v.clamp(0.0, 1.0) * 65535.0).round() as u16).to_ne_bytes()).collect(),
     };
     image::codecs::png::PngEncoder::new(out)
         .write_image(&bytes, img.width() as u32, img.height() as u32, color)
@@ -278,7 +274,8 @@ pub fn save_exr(img: &Image, path: impl AsRef<Path>) -> Result<()> {
                 AnyChannel::new(name.as_str(), FlatSamples::F32(values))
             })
             .collect();
-        let layer = Layer::new((img.width(), img.height()), LayerAttributes::named("patina"), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
+        let layer =
+            Layer::new((img.width(), img.height()), LayerAttributes::named("patina"), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
         exr::prelude::Image::from_layer(layer)
             .write()
             .to_buffered(Cursor::new(buf))
@@ -299,7 +296,9 @@ pub fn output_format(path: &Path, channels: usize) -> Result<Format> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("exr") => Ok(Format::Exr),
         Some("png") if channels <= 4 => Ok(Format::Png),
-        Some("png") => Err(Error::invalid(format!("{}: PNG holds at most 4 channels, this image has {channels}; use .exr", path.display()))),
+        Some("png") => {
+            Err(Error::invalid(format!("{}: PNG holds at most 4 channels, this image has {channels}; use .exr", path.display())))
+        }
         _ => Err(Error::invalid(format!("{}: output must end in .png or .exr", path.display()))),
     }
 }

@@ -169,10 +169,7 @@ impl Image {
         let first = images.first().ok_or_else(|| Error::invalid("no images to stack"))?;
         let (w, h) = first.size();
         if let Some(bad) = images.iter().find(|i| i.size() != (w, h)) {
-            return Err(Error::invalid(format!(
-                "cannot stack a {}x{} image onto {w}x{h} images",
-                bad.width, bad.height
-            )));
+            return Err(Error::invalid(format!("cannot stack a {}x{} image onto {w}x{h} images", bad.width, bad.height)));
         }
         let channels: usize = images.iter().map(|i| i.channels).sum();
         let mut data = Vec::with_capacity(w * h * channels);
@@ -202,10 +199,7 @@ impl Image {
     /// The sub-image with top-left corner (x, y) and size w x h.
     pub fn crop(&self, x: usize, y: usize, w: usize, h: usize) -> Result<Image> {
         if x + w > self.width || y + h > self.height || w == 0 || h == 0 {
-            return Err(Error::invalid(format!(
-                "crop {w}x{h}+{x}+{y} is outside the {}x{} image",
-                self.width, self.height
-            )));
+            return Err(Error::invalid(format!("crop {w}x{h}+{x}+{y} is outside the {}x{} image", self.width, self.height)));
         }
         let c = self.channels;
         let mut data = Vec::with_capacity(w * h * c);

@@ -29,10 +29,7 @@ impl Sequence {
             return Err(Error::invalid("the frame step must be at least 1"));
         }
         if range.start >= range.end || range.end > n {
-            return Err(Error::invalid(format!(
-                "frames {}..{} are outside the sequence's {n} frames (0..{n})",
-                range.start, range.end
-            )));
+            return Err(Error::invalid(format!("frames {}..{} are outside the sequence's {n} frames (0..{n})", range.start, range.end)));
         }
         let keep = |i: &usize| range.contains(i) && (i - range.start) % step == 0;
         let frames = self.frames.into_iter().enumerate().filter(|(i, _)| keep(i)).map(|(_, f)| f).collect();

@@ -20,16 +20,17 @@ type C32 = Complex<f32>;
 
 /// Smallest n' >= n whose only prime factors are 2, 3 and 5 (fast FFT sizes).
 fn fast_size(n: usize) -> usize {
-    (n..).find(|&m| {
-        let mut k = m;
-        for p in [2, 3, 5] {
-            while k % p == 0 {
-                k /= p;
+    (n..)
+        .find(|&m| {
+            let mut k = m;
+            for p in [2, 3, 5] {
+                while k % p == 0 {
+                    k /= p;
+                }
             }
-        }
-        k == 1
-    })
-    .expect("a 5-smooth number exists above any n")
+            k == 1
+        })
+        .expect("a 5-smooth number exists above any n")
 }
 
 /// FFT plans for one transform size; spectra are stored column-major
@@ -268,11 +269,7 @@ impl SpectralSource {
         let k = q.constant as f32;
         for y in 0..vh {
             out.extend(full[y * fw..y * fw + vw].iter().enumerate().map(|(x, v)| {
-                let boxed = if q.box_scale != 0.0 {
-                    (q.box_scale * self.squares_sat.sum(x, y, q.kw, q.kh)) as f32
-                } else {
-                    0.0
-                };
+                let boxed = if q.box_scale != 0.0 { (q.box_scale * self.squares_sat.sum(x, y, q.kw, q.kh)) as f32 } else { 0.0 };
                 (v + k + boxed).max(0.0)
             }));
         }

@@ -93,8 +93,7 @@ impl PatchMetric {
     /// This metric followed by `other` over the next channels.
     pub fn then(&self, other: &PatchMetric) -> PatchMetric {
         let shift = self.channels;
-        let mut groups: Vec<(Range<usize>, GroupDistance)> =
-            self.groups.iter().map(|g| (g.channels.clone(), g.distance.clone())).collect();
+        let mut groups: Vec<(Range<usize>, GroupDistance)> = self.groups.iter().map(|g| (g.channels.clone(), g.distance.clone())).collect();
         groups.extend(other.groups.iter().map(|g| (g.channels.start + shift..g.channels.end + shift, g.distance.clone())));
         PatchMetric::from_groups(self.channels + other.channels, groups)
     }
@@ -253,10 +252,12 @@ mod tests {
             vec![(0..1, GroupDistance::WeightedSsd(vec![0.5])), (1..3, GroupDistance::Custom { weight: 2.0, distance: Arc::new(AbsDiff) })],
         );
         for (tx, ty) in [(0, 0), (5, 5), (11, 9), (1, 8)] {
-            let want = naive(&t, tx, ty, &s, 4, 5, 2, |a, b| 0.5 * (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + 2.0 * (a[2] - b[2]).powi(2));
+            let want =
+                naive(&t, tx, ty, &s, 4, 5, 2, |a, b| 0.5 * (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + 2.0 * (a[2] - b[2]).powi(2));
             let got = ssd.patch_cost(&t, tx, ty, &s, 4, 5, 2, f32::INFINITY);
             assert!((want - got).abs() < 1e-4, "{want} vs {got}");
-            let want = naive(&t, tx, ty, &s, 4, 5, 2, |a, b| 0.5 * (a[0] - b[0]).powi(2) + 2.0 * ((a[1] - b[1]).abs() + (a[2] - b[2]).abs()));
+            let want =
+                naive(&t, tx, ty, &s, 4, 5, 2, |a, b| 0.5 * (a[0] - b[0]).powi(2) + 2.0 * ((a[1] - b[1]).abs() + (a[2] - b[2]).abs()));
             let got = custom.patch_cost(&t, tx, ty, &s, 4, 5, 2, f32::INFINITY);
             assert!((want - got).abs() < 1e-4, "{want} vs {got}");
         }

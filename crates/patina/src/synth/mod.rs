@@ -20,7 +20,7 @@ pub mod vote;
 pub use distance::{GroupDistance, PatchMetric, TexelDistance};
 pub use nnf::{Match, Nnf, SourceDomain};
 pub use optimize::{Init, OptimizeParams, Synthesized};
-pub use vote::VoteWeights;
 pub use patchmatch::PatchMatch;
 pub use problem::{Progress, Synthesis};
 pub use quilt::{Placement, QuiltParams, QuiltPlan, Quilted};
+pub use vote::VoteWeights;

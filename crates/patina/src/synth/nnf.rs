@@ -1,9 +1,9 @@
 //! Nearest-neighbour fields: for each target pixel, the centre of the source
 //! patch it maps to and that match's cost.
 
+use crate::error::{Error, Result};
 use crate::image::Mask;
 use crate::rng::{self, Rng};
-use crate::error::{Error, Result};
 
 /// One target pixel's match: source patch centre and its cost.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,19 +74,12 @@ impl SourceDomain {
     /// radius `radius`; `allowed` marks the source pixels patches may use.
     pub fn new(width: usize, height: usize, radius: usize, allowed: Option<&Mask>) -> Result<Self> {
         if width < 2 * radius + 1 || height < 2 * radius + 1 {
-            return Err(Error::invalid(format!(
-                "the source ({width}x{height}) is smaller than one {0}x{0} patch",
-                2 * radius + 1
-            )));
+            return Err(Error::invalid(format!("the source ({width}x{height}) is smaller than one {0}x{0} patch", 2 * radius + 1)));
         }
         let valid: Vec<bool> = match allowed {
             Some(m) => {
                 if m.size() != (width, height) {
-                    return Err(Error::invalid(format!(
-                        "source mask is {}x{} but the source is {width}x{height}",
-                        m.width(),
-                        m.height()
-                    )));
+                    return Err(Error::invalid(format!("source mask is {}x{} but the source is {width}x{height}", m.width(), m.height())));
                 }
                 m.erode(radius).bits().to_vec()
             }

@@ -63,7 +63,16 @@ pub const INIT_BLOCK: usize = 8;
 
 impl Default for OptimizeParams {
     fn default() -> Self {
-        OptimizeParams { patch: 5, levels: None, search_vote_iters: 6, patchmatch_iters: 4, uniformity: 3500.0 / 65025.0, vote: VoteWeights::Mean, init: Init::Quilt, stop_threshold: 5.0 / 255.0 }
+        OptimizeParams {
+            patch: 5,
+            levels: None,
+            search_vote_iters: 6,
+            patchmatch_iters: 4,
+            uniformity: 3500.0 / 65025.0,
+            vote: VoteWeights::Mean,
+            init: Init::Quilt,
+            stop_threshold: 5.0 / 255.0,
+        }
     }
 }
 
@@ -123,7 +132,16 @@ impl Synthesis<'_> {
     /// A field copying an image quilt of `style` (guided by the guides, if
     /// any) at `size`; positions outside `domain` are clamped into it.
     #[allow(clippy::too_many_arguments)]
-    fn quilt_field(&self, style: &Image, sg: Option<&Image>, tg: Option<&Image>, allowed: Option<&Mask>, size: (usize, usize), domain: &SourceDomain, seed: u64) -> Result<Nnf> {
+    fn quilt_field(
+        &self,
+        style: &Image,
+        sg: Option<&Image>,
+        tg: Option<&Image>,
+        allowed: Option<&Mask>,
+        size: (usize, usize),
+        domain: &SourceDomain,
+        seed: u64,
+    ) -> Result<Nnf> {
         let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed);
         if let Some(m) = allowed {
             problem = problem.source_mask(m);

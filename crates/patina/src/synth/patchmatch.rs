@@ -191,7 +191,8 @@ impl Scan<'_> {
                         let (cx, cy) = self.domain.random(&mut g);
                         if self.allowed(x, y, cx as i64, cy as i64) {
                             let r = self.pm.radius;
-                            let cost = self.pm.metric.patch_cost(self.target, x, y, self.source, cx as usize, cy as usize, r, f32::INFINITY);
+                            let cost =
+                                self.pm.metric.patch_cost(self.target, x, y, self.source, cx as usize, cy as usize, r, f32::INFINITY);
                             best = Match { x: cx, y: cy, cost };
                             break;
                         }

@@ -104,11 +104,7 @@ impl<'a> Synthesis<'a> {
                 src.height()
             )));
         }
-        let size = self
-            .size
-            .or(self.target_guide.map(Image::size))
-            .or(self.fill.map(|(i, _)| i.size()))
-            .unwrap_or(src.size());
+        let size = self.size.or(self.target_guide.map(Image::size)).or(self.fill.map(|(i, _)| i.size())).unwrap_or(src.size());
         let (w, h) = size;
         if w == 0 || h == 0 {
             return Err(Error::invalid(format!("output size {w}x{h} is empty")));
@@ -130,11 +126,7 @@ impl<'a> Synthesis<'a> {
                 return Err(Error::invalid(format!("target guide is {}x{} but the output is {w}x{h}", tg.width(), tg.height())));
             }
             if sg.channels() != tg.channels() {
-                return Err(Error::invalid(format!(
-                    "source guide has {} channels but target guide has {}",
-                    sg.channels(),
-                    tg.channels()
-                )));
+                return Err(Error::invalid(format!("source guide has {} channels but target guide has {}", sg.channels(), tg.channels())));
             }
         }
         if let Some(m) = self.source_mask {

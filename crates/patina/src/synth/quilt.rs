@@ -331,8 +331,7 @@ impl Pass<'_> {
         let mut usage = Usage::new(self.source.size(), self.block);
         let waves = 2 * (ny - 1) + (nx - 1) + 1;
         for wave in 0..waves {
-            let blocks: Vec<(usize, usize)> =
-                (0..ny).filter_map(|i| wave.checked_sub(2 * i).filter(|&j| j < nx).map(|j| (i, j))).collect();
+            let blocks: Vec<(usize, usize)> = (0..ny).filter_map(|i| wave.checked_sub(2 * i).filter(|&j| j < nx).map(|j| (i, j))).collect();
             let planned: Vec<Placement> = blocks.par_iter().map(|&(i, j)| self.place(&canvas, &usage, i, j, nx)).collect();
             for p in planned {
                 paste(&mut canvas, self.source, &p, self.block);
@@ -341,14 +340,7 @@ impl Pass<'_> {
             }
             progress(placements.len(), nx * ny);
         }
-        QuiltPlan {
-            width,
-            height,
-            source_size: self.source.size(),
-            block: self.block,
-            overlap: self.overlap,
-            placements,
-        }
+        QuiltPlan { width, height, source_size: self.source.size(), block: self.block, overlap: self.overlap, placements }
     }
 
     /// Choose the source block for grid cell (i, j) and its seam.
@@ -358,19 +350,14 @@ impl Pass<'_> {
         let (x, y) = (j * (bw - ow), i * (bh - oh));
         let (left, top) = (j > 0, i > 0);
         let mut g = rng::generator(self.seed, &[(i * nx + j) as u64]);
-        let overlap_mask: Vec<f32> =
-            (0..bw * bh).map(|k| if (left && k % bw < ow) || (top && k / bw < oh) { 1.0 } else { 0.0 }).collect();
+        let overlap_mask: Vec<f32> = (0..bw * bh).map(|k| if (left && k % bw < ow) || (top && k / bw < oh) { 1.0 } else { 0.0 }).collect();
         let full = vec![1.0f32; bw * bh];
         let m_sum: f32 = overlap_mask.iter().sum();
         let area = (bw * bh) as f32;
         let template = window(canvas, x, y, bw, bh);
         let prev = self.previous.as_ref().map(|p| window(p, x, y, bw, bh));
         let guide_t = self.guide.as_ref().map(|(_, _, _, t)| window(t, x, y, bw, bh));
-        let scales = (
-            if m_sum > 0.0 { self.alpha / m_sum } else { 0.0 },
-            self.alpha / area,
-            (1.0 - self.alpha) / area,
-        );
+        let scales = (if m_sum > 0.0 { self.alpha / m_sum } else { 0.0 }, self.alpha / area, (1.0 - self.alpha) / area);
         let (sw, sh) = self.source.size();
         let (vw, vh) = (sw - bw + 1, sh - bh + 1);
         let has_terms = m_sum > 0.0 || prev.is_some() || guide_t.is_some();
@@ -437,8 +424,7 @@ impl Pass<'_> {
         minima.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         // FFT costs carry round-off; re-score the front runners exactly.
         let k = self.params.min_candidates.max(1);
-        let mut scored: Vec<(f32, usize)> =
-            minima.iter().take((4 * k).max(16)).map(|&(_, i)| (exact(i % vw, i / vw), i)).collect();
+        let mut scored: Vec<(f32, usize)> = minima.iter().take((4 * k).max(16)).map(|&(_, i)| (exact(i % vw, i / vw), i)).collect();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let best = scored[0].0;
         let limit = best * (1.0 + self.params.tolerance);
@@ -516,7 +502,13 @@ impl Synthesis<'_> {
             let poverlap = if pass == 0 { overlap } else { ((pblock.0 / 6).max(1), (pblock.1 / 6).max(1)) };
             let (nx, ny) = grid(w, h, pblock, poverlap);
             let canvas = (nx * (pblock.0 - poverlap.0) + poverlap.0, ny * (pblock.1 - poverlap.1) + poverlap.1);
-            let alpha = if passes > 1 { 0.8 * pass as f32 / (passes - 1) as f32 + 0.1 } else if guided.is_some() { 0.5 } else { 1.0 };
+            let alpha = if passes > 1 {
+                0.8 * pass as f32 / (passes - 1) as f32 + 0.1
+            } else if guided.is_some() {
+                0.5
+            } else {
+                1.0
+            };
             let pass_state = Pass {
                 source: src,
                 weights: &weights,
@@ -531,10 +523,7 @@ impl Synthesis<'_> {
                 usable: self.source_mask.map(|m| usable_placements(m, pblock)),
             };
             if pass_state.usable.as_ref().is_some_and(|u| !u.contains(&true)) {
-                return Err(Error::invalid(format!(
-                    "no {}x{} block lies wholly inside the allowed source region",
-                    pblock.0, pblock.1
-                )));
+                return Err(Error::invalid(format!("no {}x{} block lies wholly inside the allowed source region", pblock.0, pblock.1)));
             }
             let report = |done: usize, total: usize| {
                 if let Some(p) = self.progress {

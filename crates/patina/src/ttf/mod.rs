@@ -57,7 +57,15 @@ pub struct TtfParams {
 
 impl Default for TtfParams {
     fn default() -> Self {
-        TtfParams { rank: 15, max_error: None, quilt: QuiltParams::default(), jitter: 0.0, flatten: false, keep_gradient: false, flatten_sigma: 0.125 }
+        TtfParams {
+            rank: 15,
+            max_error: None,
+            quilt: QuiltParams::default(),
+            jitter: 0.0,
+            flatten: false,
+            keep_gradient: false,
+            flatten_sigma: 0.125,
+        }
     }
 }
 
@@ -195,9 +203,7 @@ fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfPa
 /// the uncompressed description of each pixel's time column.
 fn stack(frames: &[Image]) -> Result<Image> {
     let (w, h, c, n) = (frames[0].width(), frames[0].height(), frames[0].channels(), frames.len());
-    let data = (0..w * h)
-        .flat_map(|p| (0..c).flat_map(move |ch| frames.iter().map(move |f| f.data()[p * c + ch])))
-        .collect();
+    let data = (0..w * h).flat_map(|p| (0..c).flat_map(move |ch| frames.iter().map(move |f| f.data()[p * c + ch]))).collect();
     Image::from_data(w, h, c * n, data)
 }
 

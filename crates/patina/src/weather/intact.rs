@@ -88,7 +88,9 @@ fn explains(img: &Image, median: &Image, allowed: &Mask) -> bool {
         mean.iter_mut().zip(p).for_each(|(m, v)| *m += *v as f64 / count);
     }
     let (mut residual, mut spread) = (0f64, 0f64);
-    for ((p, q), _) in img.data().chunks_exact(img.channels()).zip(median.data().chunks_exact(img.channels())).zip(allowed.bits()).filter(|(_, &a)| a) {
+    for ((p, q), _) in
+        img.data().chunks_exact(img.channels()).zip(median.data().chunks_exact(img.channels())).zip(allowed.bits()).filter(|(_, &a)| a)
+    {
         residual += (0..n).map(|c| ((p[c] - q[c]) as f64).powi(2)).sum::<f64>().sqrt();
         spread += (0..n).map(|c| (p[c] as f64 - mean[c]).powi(2)).sum::<f64>().sqrt();
     }

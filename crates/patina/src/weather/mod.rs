@@ -84,9 +84,13 @@ pub type AgeGrid = (usize, (usize, usize), usize);
 /// into `count` layers when `count` > 1, else none.
 pub fn resolve_layers(input: &Image, count: usize, labels: Option<&Image>, seed: u64) -> Result<Option<layers::Layers>> {
     match labels {
-        Some(l) if l.size() != input.size() => {
-            Err(Error::invalid(format!("the label image is {}x{} but the input is {}x{}", l.width(), l.height(), input.width(), input.height())))
-        }
+        Some(l) if l.size() != input.size() => Err(Error::invalid(format!(
+            "the label image is {}x{} but the input is {}x{}",
+            l.width(),
+            l.height(),
+            input.width(),
+            input.height()
+        ))),
         Some(l) => Ok(Some(layers::Layers::from_label_image(l)?)),
         None if count > 1 => Ok(Some(layers::Layers::kmeans(input, count, crate::rng::derive(seed, &[4]))?)),
         None => Ok(None),
@@ -96,7 +100,12 @@ pub fn resolve_layers(input: &Image, count: usize, labels: Option<&Image>, seed:
 /// The age map the method uses: the user's (its luminance, clamped to
 /// [0, 1]) or the automatic one with its grid, normalised within each
 /// layer when there are layers.
-pub fn resolve_age(input: &Image, params: &AgeParams, user: Option<&Image>, layers: Option<&layers::Layers>) -> Result<(Image, Option<AgeGrid>)> {
+pub fn resolve_age(
+    input: &Image,
+    params: &AgeParams,
+    user: Option<&Image>,
+    layers: Option<&layers::Layers>,
+) -> Result<(Image, Option<AgeGrid>)> {
     let (age, grid) = match user {
         Some(a) => {
             if a.size() != input.size() {
@@ -123,7 +132,13 @@ pub fn resolve_age(input: &Image, params: &AgeParams, user: Option<&Image>, laye
 }
 
 /// The whole method on `input` (sRGB colour or grey, values in [0, 1]).
-pub fn weather(input: &Image, params: &WeatherParams, overrides: Overrides, seed: u64, progress: &(dyn Fn(Stage) + Sync)) -> Result<Weathered> {
+pub fn weather(
+    input: &Image,
+    params: &WeatherParams,
+    overrides: Overrides,
+    seed: u64,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> Result<Weathered> {
     let layers = resolve_layers(input, params.layers, overrides.labels, seed)?;
     let (age, age_grid) = resolve_age(input, &params.age, overrides.age, layers.as_ref())?;
     progress(Stage::AgeMap);
@@ -157,7 +172,9 @@ pub fn weather(input: &Image, params: &WeatherParams, overrides: Overrides, seed
             (n * n, pw.min(ph))
         }
     };
-    let future = sequence::future(input, &intact_img, &age, cells, patch, sp, crate::rng::derive(seed, &[3]), &|k| progress(Stage::Future(k, sp.future)))?;
+    let future = sequence::future(input, &intact_img, &age, cells, patch, sp, crate::rng::derive(seed, &[3]), &|k| {
+        progress(Stage::Future(k, sp.future))
+    })?;
     let mut frames = vec![Frame { t: 0.0, image: intact_img.clone() }];
     frames.extend(past);
     frames.push(Frame { t: 1.0, image: input.clone() });

@@ -52,7 +52,14 @@ impl Default for RebuildParams {
 
 /// Rebuild `template` (the exemplar's size and channels) from patches of
 /// `exemplar`, using only `allowed` exemplar pixels when given.
-pub fn rebuild(exemplar: &Image, template: &Image, allowed: Option<&Mask>, engine: Engine, params: &RebuildParams, seed: u64) -> Result<Image> {
+pub fn rebuild(
+    exemplar: &Image,
+    template: &Image,
+    allowed: Option<&Mask>,
+    engine: Engine,
+    params: &RebuildParams,
+    seed: u64,
+) -> Result<Image> {
     let sg = Features::new(exemplar, true)?.stacked();
     let tg = Features::new(template, true)?.stacked();
     let mut problem = Synthesis::new(exemplar).size(template.width(), template.height()).guides(&sg, &tg, params.guide_weight).seed(seed);

@@ -55,7 +55,16 @@ pub struct SequenceParams {
 
 impl Default for SequenceParams {
     fn default() -> Self {
-        SequenceParams { past: 3, future: 3, future_span: 1.0, steps: None, delta: 0.15, patch: None, search: 0.5, rebuild: RebuildParams::default() }
+        SequenceParams {
+            past: 3,
+            future: 3,
+            future_span: 1.0,
+            steps: None,
+            delta: 0.15,
+            patch: None,
+            search: 0.5,
+            rebuild: RebuildParams::default(),
+        }
     }
 }
 
@@ -98,7 +107,14 @@ pub(crate) fn settle(rebuilt: &Image, template: &Image, previous: &Image, intact
 
 /// Frames for t in (0, 1), oldest last, given the input, its intact
 /// texture and its age map.
-pub fn past(input: &Image, intact: &Image, age: &Image, params: &SequenceParams, seed: u64, progress: &dyn Fn(usize)) -> Result<Vec<Frame>> {
+pub fn past(
+    input: &Image,
+    intact: &Image,
+    age: &Image,
+    params: &SequenceParams,
+    seed: u64,
+    progress: &dyn Fn(usize),
+) -> Result<Vec<Frame>> {
     check_sizes(input, intact, age)?;
     let mut previous = intact.clone();
     let mut frames = Vec::with_capacity(params.past);
@@ -133,7 +149,16 @@ fn orient(o: usize, u: usize, v: usize, s: usize) -> (usize, usize) {
 
 /// Frames for t > 1, each grown from the previous by eq. (2).
 #[allow(clippy::too_many_arguments)]
-pub fn future(input: &Image, intact: &Image, age: &Image, grid_cells: usize, age_patch: usize, params: &SequenceParams, seed: u64, progress: &dyn Fn(usize)) -> Result<Vec<Frame>> {
+pub fn future(
+    input: &Image,
+    intact: &Image,
+    age: &Image,
+    grid_cells: usize,
+    age_patch: usize,
+    params: &SequenceParams,
+    seed: u64,
+    progress: &dyn Fn(usize),
+) -> Result<Vec<Frame>> {
     check_sizes(input, intact, age)?;
     let (w, h, n) = (input.width(), input.height(), input.channels());
     let s = params.patch.unwrap_or(age_patch).clamp(3, w.min(h));

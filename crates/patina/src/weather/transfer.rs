@@ -28,15 +28,18 @@ pub struct Source<'a> {
 }
 
 /// Frames of T taking on S's weathering at `times` (each in (0, 1]).
-pub fn transfer(source: &Source, target: &Image, times: &[f32], params: &RebuildParams, seed: u64, progress: &dyn Fn(usize)) -> Result<Vec<Frame>> {
+pub fn transfer(
+    source: &Source,
+    target: &Image,
+    times: &[f32],
+    params: &RebuildParams,
+    seed: u64,
+    progress: &dyn Fn(usize),
+) -> Result<Vec<Frame>> {
     let (source_age, source_intact) = (source.age, source.intact);
     let source = source.image;
     if source.channels() != target.channels() {
-        return Err(Error::invalid(format!(
-            "the source has {} channels but the target has {}",
-            source.channels(),
-            target.channels()
-        )));
+        return Err(Error::invalid(format!("the source has {} channels but the target has {}", source.channels(), target.channels())));
     }
     if times.iter().any(|t| !(*t > 0.0 && *t <= 1.0)) {
         return Err(Error::invalid("transfer times must lie in (0, 1]"));
