@@ -110,6 +110,9 @@ pub struct Args {
     /// Blend blocks linearly across the overlap instead of cutting along the minimum-error seam (quilt).
     #[arg(long)]
     pub no_cut: bool,
+    /// Soften each minimum-error seam over this many pixels on either side (quilt; 0 = a hard cut).
+    #[arg(long, default_value_t = 0)]
+    pub feather: usize,
     /// Texture-transfer passes with guides, each with blocks a third smaller (quilt).
     #[arg(long, default_value_t = 3)]
     pub transfer_passes: usize,
@@ -155,6 +158,7 @@ impl Args {
             tolerance: self.tolerance,
             min_candidates: self.min_candidates,
             boundary_cut: !self.no_cut,
+            feather: self.feather,
             transfer_passes: self.transfer_passes,
             reuse: self.reuse,
         }

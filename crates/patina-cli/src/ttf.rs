@@ -44,6 +44,9 @@ pub struct Args {
     /// Candidate blocks: those within (1 + tolerance) x the best cost.
     #[arg(long, default_value_t = 0.1)]
     pub tolerance: f32,
+    /// Soften each seam over this many pixels on either side (0 = the paper's hard cut).
+    #[arg(long, default_value_t = 2)]
+    pub feather: usize,
     /// Time jitter E (eqs. 6-7): each block's clock drifts randomly by at most E frames, so copies of one block do not change in lockstep; 0 = off.
     #[arg(long, default_value_t = 0.0)]
     pub jitter: f32,
@@ -53,6 +56,12 @@ pub struct Args {
     /// With --flatten: multiply the lighting back into the output, stretched to its size.
     #[arg(long, requires = "flatten")]
     pub keep_gradient: bool,
+    /// With --flatten: the low-pass Gaussian's sigma as a fraction of the input's larger side.
+    #[arg(long, default_value_t = 0.125, requires = "flatten")]
+    pub flatten_sigma: f32,
+    /// Sum the block cost over frames as they are (the paper's eq. 3). By default each frame is weighted by the inverse of its fine-detail contrast, so smooth early frames get seams as clean as busy late ones.
+    #[arg(long)]
+    pub no_balance: bool,
     /// Rate map: a greyscale image of the output's size; each pixel runs at luminance x --rate-scale times the input's speed (0 = frozen).
     #[arg(long, conflicts_with_all = ["rate_light", "rate_curvature"])]
     pub rate_map: Option<PathBuf>,
@@ -167,12 +176,14 @@ pub fn run(args: Args) -> Result<()> {
             block: args.block,
             overlap: args.overlap.map(|o| (o, o)),
             tolerance: args.tolerance,
-            ..QuiltParams::default()
+            feather: args.feather,
+            ..TtfParams::default().quilt
         },
         jitter: args.jitter,
         flatten: args.flatten,
         keep_gradient: args.keep_gradient,
-        ..TtfParams::default()
+        flatten_sigma: args.flatten_sigma,
+        balance: !args.no_balance,
     };
     let result = with_bar("ttf", |report| ttf::synthesize(&frames, size, &params, rate.as_ref(), args.seed, Some(report)))?;
     manifest.timings_ms.insert("synthesize".into(), clock.lap());

@@ -53,6 +53,10 @@ pub struct QuiltParams {
     pub boundary_cut: bool,
     /// Texture-transfer passes when guides are given (N in the paper).
     pub transfer_passes: usize,
+    /// Feather the boundary cut over this many pixels on each side (0 =
+    /// a hard cut, as in the paper). A soft step hides the small brightness
+    /// differences a cut through smooth material leaves.
+    pub feather: usize,
     /// Reuse penalty (not in the paper): a candidate's cost is multiplied by
     /// 1 + reuse x the number of blocks already taken from around the same
     /// exemplar spot. Without it, exemplars with easy smooth areas (peeling
@@ -62,7 +66,16 @@ pub struct QuiltParams {
 
 impl Default for QuiltParams {
     fn default() -> Self {
-        QuiltParams { block: None, overlap: None, tolerance: 0.1, min_candidates: 3, boundary_cut: true, transfer_passes: 3, reuse: 0.5 }
+        QuiltParams {
+            block: None,
+            overlap: None,
+            tolerance: 0.1,
+            min_candidates: 3,
+            boundary_cut: true,
+            feather: 0,
+            transfer_passes: 3,
+            reuse: 0.5,
+        }
     }
 }
 
@@ -460,6 +473,9 @@ impl Pass<'_> {
                     }
                 }
             }
+            if self.params.feather > 0 && (left || top) {
+                keep = feathered(&keep, bw, bh, self.params.feather, |x, y| (left && x < ow) || (top && y < oh));
+            }
         } else {
             for yy in 0..bh {
                 for xx in 0..bw {
@@ -476,6 +492,29 @@ impl Pass<'_> {
         }
         keep
     }
+}
+
+/// A 0/1 keep map box-filtered over (2r + 1)^2 (edges replicated), only
+/// where `band` holds: the overlap, where the cut runs.
+fn feathered(keep: &[f32], bw: usize, bh: usize, r: usize, band: impl Fn(usize, usize) -> bool) -> Vec<f32> {
+    let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+    let mut rows = vec![0.0f32; bw * bh];
+    for y in 0..bh {
+        for x in 0..bw {
+            let s: f32 = (-(r as isize)..=r as isize).map(|d| keep[y * bw + clamp(x as isize + d, bw)]).sum();
+            rows[y * bw + x] = s / (2 * r + 1) as f32;
+        }
+    }
+    let mut out = keep.to_vec();
+    for y in 0..bh {
+        for x in 0..bw {
+            if band(x, y) {
+                let s: f32 = (-(r as isize)..=r as isize).map(|d| rows[clamp(y as isize + d, bh) * bw + x]).sum();
+                out[y * bw + x] = s / (2 * r + 1) as f32;
+            }
+        }
+    }
+    out
 }
 
 impl Synthesis<'_> {

@@ -43,7 +43,7 @@ pub struct TtfParams {
     /// reconstruction error is at most this (e.g. 0.05).
     pub max_error: Option<f64>,
     /// Block and overlap sizes (elongated blocks allowed, section 5.3),
-    /// candidate tolerance and seams.
+    /// candidate tolerance and seams (feathered over 2 px by default).
     pub quilt: QuiltParams,
     /// E, the most frames a block's time may drift from the output's (eq. 7); 0 = no jitter.
     pub jitter: f32,
@@ -53,6 +53,9 @@ pub struct TtfParams {
     pub keep_gradient: bool,
     /// Low-pass sigma for `flatten`, as a fraction of the larger side.
     pub flatten_sigma: f32,
+    /// Weight each frame's share of the block cost by the inverse of its
+    /// fine-detail contrast (not in the paper; see [`frame_balance`]).
+    pub balance: bool,
 }
 
 impl Default for TtfParams {
@@ -60,11 +63,12 @@ impl Default for TtfParams {
         TtfParams {
             rank: 15,
             max_error: None,
-            quilt: QuiltParams::default(),
+            quilt: QuiltParams { feather: 2, ..QuiltParams::default() },
             jitter: 0.0,
             flatten: false,
             keep_gradient: false,
             flatten_sigma: 0.125,
+            balance: true,
         }
     }
 }
@@ -111,10 +115,11 @@ pub fn synthesize(
     let lighting = params.flatten.then(|| flatten::Lighting::estimate(frames, params.flatten_sigma));
     let flat = lighting.as_ref().map(|l| l.divide(frames));
     let frames = flat.as_deref().unwrap_or(frames);
+    let weights = if params.balance { frame_balance(frames) } else { vec![1.0; n] };
     let (features, compression) = if params.rank == 0 && params.max_error.is_none() {
-        (stack(frames)?, None)
+        (stack(frames, &weights)?, None)
     } else {
-        let basis = TemporalBasis::new(frames)?;
+        let basis = TemporalBasis::weighted(frames, &weights)?;
         let rank = params.max_error.map_or(params.rank.min(n), |e| basis.rank_for(e));
         let c = Compression { rank, relative_rms: basis.relative_rms(rank), singular_values: basis.singular_values.clone() };
         (basis.coefficients(frames, rank)?, Some(c))
@@ -199,11 +204,38 @@ fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfPa
     Ok(n)
 }
 
-/// All frames stacked as channels (channel c * n + f = frame f, channel c):
-/// the uncompressed description of each pixel's time column.
-fn stack(frames: &[Image]) -> Result<Image> {
+/// Per-frame weights that give every frame the same say in the block cost.
+///
+/// Eq. (3) sums squared differences over frames as they are, so a
+/// high-contrast late frame (dark rust on bright steel) outweighs the smooth
+/// early frames, and seams get cut where only the late frames match: the
+/// early frames then show a patchwork of blocks. A seam is as visible as its
+/// step is large against the texture's own detail, so each frame is weighted
+/// by 1 / (its RMS fine detail: the difference from a 2 px Gaussian blur),
+/// normalised to a mean square of 1.
+pub fn frame_balance(frames: &[Image]) -> Vec<f64> {
+    let detail: Vec<f64> = frames
+        .par_iter()
+        .map(|f| {
+            let blur = crate::image::filter::gaussian_blur(f, 2.0);
+            let ss: f64 = f.data().iter().zip(blur.data()).map(|(a, b)| f64::from(a - b).powi(2)).sum();
+            (ss / f.data().len() as f64).sqrt()
+        })
+        .collect();
+    let floor = detail.iter().copied().fold(0.0f64, f64::max) * 1e-3 + 1e-9;
+    let w: Vec<f64> = detail.iter().map(|d| 1.0 / d.max(floor)).collect();
+    let norm = (w.iter().map(|v| v * v).sum::<f64>() / w.len() as f64).sqrt();
+    w.iter().map(|v| v / norm).collect()
+}
+
+/// All frames, scaled by `weights`, stacked as channels (channel c * n + f
+/// = frame f, channel c): the uncompressed description of each pixel's
+/// time column.
+fn stack(frames: &[Image], weights: &[f64]) -> Result<Image> {
     let (w, h, c, n) = (frames[0].width(), frames[0].height(), frames[0].channels(), frames.len());
-    let data = (0..w * h).flat_map(|p| (0..c).flat_map(move |ch| frames.iter().map(move |f| f.data()[p * c + ch]))).collect();
+    let data = (0..w * h)
+        .flat_map(|p| (0..c).flat_map(move |ch| frames.iter().zip(weights).map(move |(f, wt)| f.data()[p * c + ch] * *wt as f32)))
+        .collect();
     Image::from_data(w, h, c * n, data)
 }
 

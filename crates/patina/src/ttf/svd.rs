@@ -40,17 +40,34 @@ pub struct TemporalBasis {
     vectors: Vec<f64>,
     frames: usize,
     channels: usize,
+    /// Frame f enters A multiplied by weights[f].
+    weights: Vec<f64>,
 }
 
 impl TemporalBasis {
     /// Decompose `frames` (all of one size and channel count).
     pub fn new(frames: &[Image]) -> Result<Self> {
+        Self::weighted(frames, &vec![1.0; frames.len()])
+    }
+
+    /// Decompose A D, the frames scaled by `weights` (one per frame), so
+    /// that coefficient distances are weighted sums over frames.
+    pub fn weighted(frames: &[Image], weights: &[f64]) -> Result<Self> {
+        if weights.len() != frames.len() || weights.iter().any(|w| !w.is_finite() || *w < 0.0) {
+            return Err(Error::invalid("frame weights must be one finite number >= 0 per frame"));
+        }
         let first = frames.first().ok_or_else(|| Error::invalid("the sequence has no frames"))?;
         if frames.iter().any(|f| f.size() != first.size() || f.channels() != first.channels()) {
             return Err(Error::invalid("the frames of a sequence must share one size and channel count"));
         }
         let n = frames.len();
-        let eig = SymmetricEigen::new(gram(frames));
+        let mut g = gram(frames);
+        for i in 0..n {
+            for j in 0..n {
+                g[(i, j)] *= weights[i] * weights[j];
+            }
+        }
+        let eig = SymmetricEigen::new(g);
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]).then(a.cmp(&b)));
         let singular_values: Vec<f64> = order.iter().map(|&j| eig.eigenvalues[j].max(0.0).sqrt()).collect();
@@ -64,7 +81,7 @@ impl TemporalBasis {
                 vectors[f * n + j] = sign * v[f];
             }
         }
-        Ok(TemporalBasis { singular_values, vectors, frames: n, channels: first.channels() })
+        Ok(TemporalBasis { singular_values, vectors, frames: n, channels: first.channels(), weights: weights.to_vec() })
     }
 
     /// ||A - A_k||_F / ||A||_F: the relative RMS error of the rank-k
@@ -84,7 +101,7 @@ impl TemporalBasis {
         (1..=self.frames).find(|&k| self.relative_rms(k) <= error).unwrap_or(self.frames)
     }
 
-    /// The rank-k coefficients C = A V_k as an image with channels x k
+    /// The rank-k coefficients C = A D V_k as an image with channels x k
     /// channels (channel c * k + j = coefficient j of colour channel c).
     /// `k` is clamped to 1..=n.
     pub fn coefficients(&self, frames: &[Image], k: usize) -> Result<Image> {
@@ -93,7 +110,7 @@ impl TemporalBasis {
         }
         let k = k.clamp(1, self.frames);
         let n = self.frames;
-        let basis: Vec<f64> = (0..n).flat_map(|f| self.vectors[f * n..f * n + k].to_vec()).collect();
+        let basis: Vec<f64> = (0..n).flat_map(|f| self.vectors[f * n..f * n + k].iter().map(move |v| v * self.weights[f])).collect();
         let (w, h, c) = (frames[0].width(), frames[0].height(), self.channels);
         let mut out = Image::new(w, h, c * k);
         out.data_mut().par_chunks_mut(w * c * k).enumerate().for_each(|(y, row)| {
