@@ -63,7 +63,42 @@ pub fn run(args: Args) -> Result<()> {
     });
     manifest.write(&args.out.join("manifest.json"))?;
     eprintln!("patina demo: wrote {} images and manifest.json to {}", files.len(), args.out.display());
-    weather_demo(&args)
+    weather_demo(&args)?;
+    ttf_demo(&args)
+}
+
+/// A procedural rusting-steel time-lapse (96 x 96, 40 frames) enlarged to
+/// 192 x 192 with time jitter, written to OUT/ttf/ like `patina ttf`.
+fn ttf_demo(args: &Args) -> Result<()> {
+    let dir = args.out.join("ttf");
+    let input_dir = dir.join("input");
+    std::fs::create_dir_all(&input_dir).map_err(|source| Error::Write { path: input_dir.clone(), source })?;
+    for (i, frame) in samples::rusting_timelapse(96, 96, 40, args.seed).iter().enumerate() {
+        save_png(frame, input_dir.join(format!("{i:03}.png")), BitDepth::Eight)?;
+    }
+    let seed = args.seed.to_string();
+    let argv: [&OsStr; 11] = [
+        "ttf".as_ref(),
+        input_dir.as_os_str(),
+        "--out".as_ref(),
+        dir.as_os_str(),
+        "--size".as_ref(),
+        "192x192".as_ref(),
+        "--jitter".as_ref(),
+        "2".as_ref(),
+        "--compare".as_ref(),
+        "--seed".as_ref(),
+        seed.as_ref(),
+    ];
+    let ttf = TtfCommand::try_parse_from(argv).map_err(|e| Error::Internal(format!("demo arguments: {e}")))?;
+    crate::ttf::run(ttf.args)
+}
+
+/// `patina ttf`'s arguments on their own, for the demo to parse.
+#[derive(clap::Parser)]
+struct TtfCommand {
+    #[command(flatten)]
+    args: crate::ttf::Args,
 }
 
 /// The flagship: glazed tiles with rust stains, aged back to intact and

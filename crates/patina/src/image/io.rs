@@ -197,33 +197,45 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut Vec<u8>) -> Result<()>) 
 /// an animated GIF that loops forever, each frame shown `delay_ms`.
 /// Colours are quantised per frame (NeuQuant), as GIF allows 256.
 pub fn save_gif(frames: &[&Image], path: impl AsRef<Path>, delay_ms: u32) -> Result<()> {
-    use image::codecs::gif::{GifEncoder, Repeat};
+    use rayon::prelude::*;
     let path = path.as_ref();
     let first = frames.first().ok_or_else(|| Error::invalid("an animation needs at least one frame"))?;
     if frames.iter().any(|f| f.size() != first.size()) {
         return Err(Error::invalid("animation frames differ in size"));
     }
-    write_atomic(path, |buf| {
-        let mut enc = GifEncoder::new_with_speed(&mut *buf, 10);
-        enc.set_repeat(Repeat::Infinite).map_err(|e| Error::Internal(format!("gif: {e}")))?;
-        for f in frames {
+    let (w, h) = (first.width(), first.height());
+    if w > usize::from(u16::MAX) || h > usize::from(u16::MAX) {
+        return Err(Error::invalid(format!("a GIF cannot be {w}x{h} (at most 65535 per side)")));
+    }
+    // Each frame's palette is quantised (NeuQuant) on its own thread; the
+    // frames are then written in order.
+    let delay = u16::try_from(delay_ms.div_ceil(10)).unwrap_or(u16::MAX);
+    let encoded: Vec<gif::Frame<'static>> = frames
+        .par_iter()
+        .map(|f| {
             let n = f.channels();
-            let rgba: Vec<u8> = f
+            let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+            let mut rgba: Vec<u8> = f
                 .data()
                 .chunks_exact(n)
-                .flat_map(|p| {
-                    let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-                    match n {
-                        1 => [q(p[0]), q(p[0]), q(p[0]), 255],
-                        2 => [q(p[0]), q(p[0]), q(p[0]), q(p[1])],
-                        3 => [q(p[0]), q(p[1]), q(p[2]), 255],
-                        _ => [q(p[0]), q(p[1]), q(p[2]), q(p[3])],
-                    }
+                .flat_map(|p| match n {
+                    1 => [q(p[0]), q(p[0]), q(p[0]), 255],
+                    2 => [q(p[0]), q(p[0]), q(p[0]), q(p[1])],
+                    3 => [q(p[0]), q(p[1]), q(p[2]), 255],
+                    _ => [q(p[0]), q(p[1]), q(p[2]), q(p[3])],
                 })
                 .collect();
-            let img = image::RgbaImage::from_raw(f.width() as u32, f.height() as u32, rgba).expect("sizes match");
-            let frame = image::Frame::from_parts(img, 0, 0, image::Delay::from_numer_denom_ms(delay_ms, 1));
-            enc.encode_frame(frame).map_err(|e| Error::Internal(format!("gif: {e}")))?;
+            let mut frame = gif::Frame::from_rgba_speed(w as u16, h as u16, &mut rgba, 10);
+            frame.delay = delay;
+            frame
+        })
+        .collect();
+    write_atomic(path, |buf| {
+        let gif_err = |e: gif::EncodingError| Error::Internal(format!("gif: {e}"));
+        let mut enc = gif::Encoder::new(&mut *buf, w as u16, h as u16, &[]).map_err(gif_err)?;
+        enc.set_repeat(gif::Repeat::Infinite).map_err(gif_err)?;
+        for frame in &encoded {
+            enc.write_frame(frame).map_err(gif_err)?;
         }
         Ok(())
     })
