@@ -139,7 +139,12 @@ fn demo_makes_its_own_samples_and_measures_them() {
     let out = dir.join("demo");
     let r = patina(&["demo", "--out", s(&out)], None);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_eq!(listing(&out), vec!["exemplar.png", "manifest.json", "optimize.png", "quilt.png", "weather"]);
+    assert_eq!(listing(&out), vec!["exemplar.png", "manifest.json", "optimize.png", "quilt.png", "ttf", "weather"]);
+    // The time-lapse: 40 frames enlarged, no more flicker than the input's.
+    let t: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("ttf/manifest.json")).unwrap()).unwrap();
+    assert_eq!(t["frames"].as_array().unwrap().len(), 40);
+    let (fi, fo) = (t["metrics"]["flicker_input"].as_f64().unwrap(), t["metrics"]["flicker_output"].as_f64().unwrap());
+    assert!(fo < 1.5 * fi && fi < 1.5 * fo, "flicker {fo} vs input {fi}");
     // The flagship: weathering of rusty tiles, with its own manifest.
     let w: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("weather/manifest.json")).unwrap()).unwrap();
     let areas: Vec<f64> = w["metrics"]["weathered_area"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
@@ -200,4 +205,88 @@ fn age_map_and_intact_write_single_images() {
         assert_eq!(o.channels(), if cmd == "age-map" { 1 } else { 3 });
         assert!(dir.join(format!("{name}.manifest.json")).exists());
     }
+}
+
+/// A 48 x 40, `n`-frame rusting time-lapse as numbered PNGs in `dir/name`.
+fn timelapse(dir: &Path, name: &str, n: usize) -> PathBuf {
+    let d = dir.join(name);
+    std::fs::create_dir_all(&d).unwrap();
+    for (i, f) in patina::samples::rusting_timelapse(48, 40, n, 1).iter().enumerate() {
+        // Unpadded numbers: natural order must put 2 before 10.
+        save_png(f, d.join(format!("f{i}.png")), BitDepth::Eight).unwrap();
+    }
+    d
+}
+
+#[test]
+fn ttf_writes_frames_gifs_and_the_svd_error_and_is_thread_independent() {
+    let dir = scratch("ttf");
+    let input = timelapse(&dir, "seq", 12);
+    let run = |out: &Path, threads: usize| {
+        let r = patina(&["ttf", s(&input), "-o", s(out), "--size", "80x64", "--jitter", "2", "--compare", "--seed", "3"], Some(threads));
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    };
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    run(&a, 1);
+    run(&b, 2);
+    assert_eq!(listing(&a), vec!["compare.gif", "frames", "manifest.json", "sequence.gif"]);
+    assert_eq!(listing(&a.join("frames")).len(), 12);
+    for f in listing(&a.join("frames")) {
+        assert_eq!(std::fs::read(a.join("frames").join(&f)).unwrap(), std::fs::read(b.join("frames").join(&f)).unwrap(), "{f}");
+    }
+    assert_eq!(load(a.join("frames/000.png")).unwrap().size(), (80, 64));
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(a.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["command"], "ttf");
+    assert_eq!(m["metrics"]["svd_rank"], 12, "rank 15 is clamped to the 12 frames");
+    assert!(m["metrics"]["svd_relative_rms"].as_f64().unwrap() < 1e-3);
+    // The first output frame is the first input frame's material: natural
+    // order read f0 first (not f10).
+    let first_in = load(input.join("f0.png")).unwrap();
+    let first_out = load(a.join("frames/000.png")).unwrap();
+    let mean = |img: &patina::Image| img.data().iter().map(|v| f64::from(*v)).sum::<f64>() / img.data().len() as f64;
+    assert!((mean(&first_in) - mean(&first_out)).abs() < 0.03);
+    // The GIF input path and a rate map of the output's size.
+    let gif = dir.join("seq.gif");
+    let frames: Vec<patina::Image> = patina::samples::rusting_timelapse(48, 40, 6, 2);
+    patina::image::io::save_gif(&frames.iter().collect::<Vec<_>>(), &gif, 100).unwrap();
+    let rate = dir.join("rate.png");
+    save_png(&patina::Image::from_fn(80, 64, 1, |x, _, p| p[0] = if x < 40 { 0.5 } else { 1.0 }), &rate, BitDepth::Eight).unwrap();
+    let c = dir.join("c");
+    let r = patina(&["ttf", s(&gif), "-o", s(&c), "--rate-map", s(&rate), "--rate-scale", "2"], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(listing(&c.join("frames")).len(), 3, "6 frames at twice the speed");
+    assert_eq!(load(c.join("frames/000.png")).unwrap().size(), (80, 64), "the size comes from the rate map");
+}
+
+#[test]
+fn ttf_bad_input_is_one_line_exit_2_and_leaves_nothing() {
+    let dir = scratch("ttf-bad");
+    let input = timelapse(&dir, "seq", 5);
+    save_png(&patina::samples::cobbles(40, 40, 1), input.join("f3.png"), BitDepth::Eight).unwrap();
+    let out = dir.join("out");
+    let good = timelapse(&dir, "good", 5);
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let rate = dir.join("rate.png");
+    save_png(&patina::Image::new(10, 10, 1), &rate, BitDepth::Eight).unwrap();
+    let o = s(&out);
+    fails_cleanly(&dir, &["ttf", s(&input), "-o", o], "f3.png");
+    fails_cleanly(&dir, &["ttf", s(&empty), "-o", o], "no frames");
+    fails_cleanly(&dir, &["ttf", s(&dir.join("nothing")), "-o", o], "nothing");
+    fails_cleanly(&dir, &["ttf", s(&good), "-o", o, "--frames", "2..9"], "outside");
+    fails_cleanly(&dir, &["ttf", s(&good), "-o", o, "--frames", "3..1"], "range");
+    fails_cleanly(&dir, &["ttf", s(&good), "-o", o, "--step", "0"], "step");
+    fails_cleanly(&dir, &["ttf", s(&good), "-o", o, "--block", "60x8"], "block");
+    fails_cleanly(&dir, &["ttf", s(&good), "-o", o, "--size", "64x64", "--rate-map", s(&rate)], "rate map");
+    fails_cleanly(&dir, &["ttf", s(&good), "-o", o, "--rate-light", "1,2"], "x,y,z");
+    fails_cleanly(&dir, &["ttf", s(&good), "-o", o, "--jitter=-1"], "jitter");
+    fails_cleanly(&dir, &["ttf", s(&good), "-o", o, "--rate-map", s(&rate), "--rate-light", "1,2,3"], "cannot be used");
+    // Writing frames/ inside a folder whose frames/ holds the input refuses.
+    let nested = dir.join("nested");
+    std::fs::create_dir_all(nested.join("frames")).unwrap();
+    save_png(&patina::Image::new(48, 40, 3), nested.join("frames/000.png"), BitDepth::Eight).unwrap();
+    save_png(&patina::Image::new(48, 40, 3), nested.join("frames/001.png"), BitDepth::Eight).unwrap();
+    let before = std::fs::read(nested.join("frames/000.png")).unwrap();
+    fails_cleanly(&dir, &["ttf", s(&nested.join("frames")), "-o", s(&nested)], "overwrite");
+    assert_eq!(std::fs::read(nested.join("frames/000.png")).unwrap(), before);
 }
