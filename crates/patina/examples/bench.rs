@@ -10,6 +10,9 @@
 //! in a child process so its peak resident memory (VmHWM) is its own.
 //! Timings are the median of 3 runs (1 run for the large cases).
 
+mod common;
+
+use common::peak_rss_mib;
 use patina::image::resample::{resize, Filter};
 use patina::synth::{OptimizeParams, QuiltParams, Synthesis};
 use patina::weather;
@@ -33,16 +36,6 @@ fn exemplar(name: &str, side: usize) -> (Image, &'static str) {
         }
         Err(_) => (patina::samples::cobbles(side, side, 1), "cobbles (procedural)"),
     }
-}
-
-fn peak_rss_mib() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find(|l| l.starts_with("VmHWM:"))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|v| v.parse::<f64>().ok())
-        .map_or(f64::NAN, |kib| kib / 1024.0)
 }
 
 /// Child mode: run one case, print "label ms peak_mib".

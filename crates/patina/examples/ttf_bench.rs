@@ -13,6 +13,9 @@
 //! (VmHWM) is its own. Timings are medians of 3 runs (5 for the block
 //! search, 1 for the large case).
 
+mod common;
+
+use common::peak_rss_mib;
 use patina::image::sequence::load_sequence;
 use patina::synth::{PatchMetric, QuiltParams, Synthesis};
 use patina::ttf::{synthesize, TemporalBasis, TtfParams};
@@ -52,16 +55,6 @@ fn median_ms(runs: usize, mut f: impl FnMut(usize)) -> f64 {
         .collect();
     t.sort_by(f64::total_cmp);
     t[t.len() / 2]
-}
-
-fn peak_rss_mib() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find(|l| l.starts_with("VmHWM:"))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|v| v.parse::<f64>().ok())
-        .map_or(f64::NAN, |kib| kib / 1024.0)
 }
 
 fn svd_table() {

@@ -77,7 +77,8 @@ impl Default for TtfParams {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Compression {
     pub rank: usize,
-    /// ||A - A_k||_F / ||A||_F.
+    /// ||A - A_k||_F / ||A||_F of the matrix the blocks were compared on:
+    /// the frames as given, or flattened and balanced when those are on.
     pub relative_rms: f64,
     /// All singular values, largest first.
     pub singular_values: Vec<f64>,
