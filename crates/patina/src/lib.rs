@@ -15,6 +15,7 @@ pub mod image;
 pub mod metrics;
 pub mod rng;
 pub mod samples;
+pub mod stbrdf;
 pub mod synth;
 pub mod ttf;
 pub mod weather;
