@@ -2,7 +2,12 @@
 //! BRDF: modeling and synthesis", 2021): materials whose parameters are
 //! polynomials in time.
 //!
+//! - [`material`]: the material (named parameters, coefficient image),
+//!   its folder of EXRs and `material.json`, tsvbrdf folders, evaluation.
 //! - [`poly`]: fitting (one shared pseudo-inverse), Horner evaluation and
 //!   the closed-form time-integrated distance (eqs. 8, 11-14).
 
+pub mod material;
 pub mod poly;
+
+pub use material::{Material, Param};

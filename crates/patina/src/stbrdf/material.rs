@@ -1,0 +1,277 @@
+//! A spatio-temporal material (Meister et al., section 4.1): named
+//! parameters (Kd RGB, Ks RGB, roughness, optionally normal, height, ...),
+//! each channel a degree-d polynomial in t on [0, 1], stored as one
+//! multi-channel coefficient image.
+//!
+//! On disk a material is a folder with one EXR per parameter and
+//! coefficient, `{Name}-{i}.exr` (the layout of meistdan/tsvbrdf:
+//! `Diffuse-0.exr` ... `Diffuse-3.exr`, `Specular-i`, `Roughness-i`,
+//! `Normal-i`, `Height-i`), plus `material.json` (degree, parameters and
+//! their channel counts). A tsvbrdf folder without `material.json` loads
+//! too: the degree is read from the file names, and single-valued
+//! parameters stored as three equal channels (roughness, height) are
+//! reduced to one.
+
+use super::poly::{evaluate, MAX_DEGREE};
+use crate::error::{Error, Result};
+use crate::image::io::{load, save_exr};
+use crate::image::{ChannelGroup, Image};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+use std::path::Path;
+
+/// One named material parameter and its channel count.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Param {
+    /// File-name stem: `Diffuse`, `Specular`, `Roughness`, `Normal`, `Height`, ...
+    pub name: String,
+    pub channels: usize,
+}
+
+/// The description written to `material.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct Descriptor {
+    degree: usize,
+    params: Vec<Param>,
+}
+
+/// A material whose every channel is a polynomial in time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub degree: usize,
+    pub params: Vec<Param>,
+    /// (sum of parameter channels) x (degree + 1) channels: parameter
+    /// channel c's coefficient k is channel c (degree + 1) + k.
+    pub coefficients: Image,
+}
+
+/// Parameter names tsvbrdf uses, in its order.
+const TSVBRDF_NAMES: [&str; 5] = ["Diffuse", "Specular", "Roughness", "Normal", "Height"];
+
+impl Material {
+    /// A material from its parts, checking that they agree.
+    pub fn new(degree: usize, params: Vec<Param>, coefficients: Image) -> Result<Self> {
+        if !(1..=MAX_DEGREE).contains(&degree) {
+            return Err(Error::invalid(format!("the polynomial degree must be 1..={MAX_DEGREE}, got {degree}")));
+        }
+        let channels: usize = params.iter().map(|p| p.channels).sum();
+        if params.is_empty() || params.iter().any(|p| p.channels == 0) || channels * (degree + 1) != coefficients.channels() {
+            return Err(Error::invalid(format!(
+                "a degree-{degree} material with {channels} parameter channels needs {} coefficient channels, got {}",
+                channels * (degree + 1),
+                coefficients.channels()
+            )));
+        }
+        let mut m = Material { degree, params, coefficients };
+        let groups = m.coefficient_groups();
+        m.coefficients.set_groups(groups)?;
+        Ok(m)
+    }
+
+    /// Parameter channels (the channel count of an evaluated frame).
+    pub fn channels(&self) -> usize {
+        self.params.iter().map(|p| p.channels).sum()
+    }
+
+    pub fn size(&self) -> (usize, usize) {
+        self.coefficients.size()
+    }
+
+    /// The evaluated channels of parameter `name`.
+    pub fn param(&self, name: &str) -> Option<Range<usize>> {
+        let mut start = 0;
+        for p in &self.params {
+            if p.name.eq_ignore_ascii_case(name) {
+                return Some(start..start + p.channels);
+            }
+            start += p.channels;
+        }
+        None
+    }
+
+    /// Channel groups of the coefficient image, one per parameter.
+    pub fn coefficient_groups(&self) -> Vec<ChannelGroup> {
+        let m = self.degree + 1;
+        let mut start = 0;
+        self.params
+            .iter()
+            .map(|p| {
+                let g = ChannelGroup { name: p.name.to_lowercase(), channels: start * m..(start + p.channels) * m };
+                start += p.channels;
+                g
+            })
+            .collect()
+    }
+
+    /// Every parameter at time t (Horner's rule per channel), named groups.
+    pub fn evaluate(&self, t: f32) -> Image {
+        let (w, h) = self.size();
+        let (c, m) = (self.channels(), self.degree + 1);
+        let mut out = Image::new(w, h, c);
+        out.data_mut().par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+            let src = self.coefficients.row(y);
+            for (o, a) in row.iter_mut().zip(src.chunks_exact(m)) {
+                *o = evaluate(a, t);
+            }
+        });
+        let mut start = 0;
+        let groups = self
+            .params
+            .iter()
+            .map(|p| {
+                let g = ChannelGroup { name: p.name.to_lowercase(), channels: start..start + p.channels };
+                start += p.channels;
+                g
+            })
+            .collect();
+        out.set_groups(groups).expect("groups tile the channels");
+        out
+    }
+
+    /// Write `dir/{Name}-{i}.exr` for every parameter and coefficient, and
+    /// `dir/material.json`. The folder is created if missing.
+    pub fn save(&self, dir: &Path) -> Result<()> {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Write { path: dir.into(), source })?;
+        let m = self.degree + 1;
+        let mut start = 0;
+        for p in &self.params {
+            for k in 0..m {
+                let (w, h) = self.size();
+                let img = Image::from_fn(w, h, p.channels, |x, y, px| {
+                    let src = self.coefficients.pixel(x, y);
+                    for (c, v) in px.iter_mut().enumerate() {
+                        *v = src[(start + c) * m + k];
+                    }
+                });
+                save_exr(&img, dir.join(format!("{}-{k}.exr", p.name)))?;
+            }
+            start += p.channels;
+        }
+        let desc = Descriptor { degree: self.degree, params: self.params.clone() };
+        crate::image::io::write_atomic(&dir.join("material.json"), |buf| {
+            serde_json::to_writer_pretty(&mut *buf, &desc).map_err(|e| Error::Internal(format!("material.json: {e}")))?;
+            buf.push(b'\n');
+            Ok(())
+        })
+    }
+
+    /// Load a material folder: ours (with `material.json`) or tsvbrdf's.
+    pub fn load(dir: &Path) -> Result<Self> {
+        if !dir.is_dir() {
+            return Err(Error::invalid(format!("{} is not a material folder", dir.display())));
+        }
+        let json = dir.join("material.json");
+        let (degree, declared) = if json.is_file() {
+            let text = std::fs::read_to_string(&json).map_err(|source| Error::Read { path: json.clone(), source })?;
+            let d: Descriptor = serde_json::from_str(&text).map_err(|e| Error::Decode { path: json.clone(), reason: e.to_string() })?;
+            (d.degree, Some(d.params))
+        } else {
+            let degree = (1..=MAX_DEGREE)
+                .rev()
+                .find(|k| dir.join(format!("Diffuse-{k}.exr")).is_file())
+                .ok_or_else(|| Error::invalid(format!("{} has neither material.json nor Diffuse-1.exr", dir.display())))?;
+            (degree, None)
+        };
+        if !(1..=MAX_DEGREE).contains(&degree) {
+            return Err(Error::invalid(format!("{}: degree {degree} is outside 1..={MAX_DEGREE}", json.display())));
+        }
+        let names: Vec<String> = match &declared {
+            Some(ps) => ps.iter().map(|p| p.name.clone()).collect(),
+            None => TSVBRDF_NAMES.iter().filter(|n| dir.join(format!("{n}-0.exr")).is_file()).map(|n| n.to_string()).collect(),
+        };
+        let m = degree + 1;
+        let mut planes: Vec<Vec<Image>> = Vec::new();
+        for name in &names {
+            let imgs = (0..m).map(|k| load(dir.join(format!("{name}-{k}.exr")))).collect::<Result<Vec<_>>>()?;
+            planes.push(imgs);
+        }
+        let first =
+            planes.first().and_then(|p| p.first()).ok_or_else(|| Error::invalid(format!("{} holds no parameters", dir.display())))?;
+        let (w, h) = first.size();
+        for (name, imgs) in names.iter().zip(&planes) {
+            if let Some(bad) = imgs.iter().position(|i| i.size() != (w, h) || i.channels() != imgs[0].channels()) {
+                return Err(Error::invalid(format!("{name}-{bad}.exr does not match the size and channels of the other coefficient maps")));
+            }
+        }
+        let params: Vec<Param> = match declared {
+            Some(ps) => ps,
+            None => names
+                .iter()
+                .zip(&planes)
+                .map(|(n, imgs)| {
+                    let c = imgs[0].channels();
+                    let single = matches!(n.as_str(), "Roughness" | "Height") && imgs.iter().all(|i| equal_channels(i));
+                    Param { name: n.clone(), channels: if single { 1 } else { c } }
+                })
+                .collect(),
+        };
+        for (p, imgs) in params.iter().zip(&planes) {
+            if imgs[0].channels() < p.channels {
+                return Err(Error::invalid(format!(
+                    "{}-0.exr has {} channels but {} are declared",
+                    p.name,
+                    imgs[0].channels(),
+                    p.channels
+                )));
+            }
+        }
+        let total: usize = params.iter().map(|p| p.channels).sum();
+        let coefficients = Image::from_fn(w, h, total * m, |x, y, px| {
+            let mut c0 = 0;
+            for (p, imgs) in params.iter().zip(&planes) {
+                for c in 0..p.channels {
+                    for (k, img) in imgs.iter().enumerate() {
+                        px[(c0 + c) * m + k] = img.pixel(x, y)[c];
+                    }
+                }
+                c0 += p.channels;
+            }
+        });
+        Material::new(degree, params, coefficients)
+    }
+}
+
+fn equal_channels(img: &Image) -> bool {
+    let c = img.channels();
+    img.data().chunks_exact(c).all(|p| p.iter().all(|v| *v == p[0]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn material() -> Material {
+        let params = vec![
+            Param { name: "Diffuse".into(), channels: 3 },
+            Param { name: "Specular".into(), channels: 3 },
+            Param { name: "Roughness".into(), channels: 1 },
+        ];
+        let coef = Image::from_fn(8, 6, 7 * 4, |x, y, p| {
+            for (i, v) in p.iter_mut().enumerate() {
+                *v = ((x * 7 + y * 3 + i * 5) % 11) as f32 / 11.0 - 0.3;
+            }
+        });
+        Material::new(3, params, coef).unwrap()
+    }
+
+    #[test]
+    fn a_material_round_trips_through_its_folder_and_evaluates_by_horner() {
+        let m = material();
+        let dir = std::env::temp_dir().join(format!("patina-material-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        m.save(&dir).unwrap();
+        assert!(dir.join("Diffuse-3.exr").is_file() && dir.join("Roughness-0.exr").is_file());
+        assert_eq!(Material::load(&dir).unwrap(), m);
+        // Without material.json it is read as a tsvbrdf folder.
+        std::fs::remove_file(dir.join("material.json")).unwrap();
+        let t = Material::load(&dir).unwrap();
+        assert_eq!((t.degree, t.channels()), (3, 7));
+        let frame = m.evaluate(0.3);
+        let a = &m.coefficients.pixel(2, 1)[6 * 4..7 * 4];
+        let want = a[0] + 0.3 * a[1] + 0.09 * a[2] + 0.027 * a[3];
+        assert!((frame.pixel(2, 1)[6] - want).abs() < 1e-6);
+        assert_eq!(m.param("roughness"), Some(6..7));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
