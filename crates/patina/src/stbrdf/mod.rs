@@ -4,11 +4,14 @@
 //!
 //! - [`material`]: the material (named parameters, coefficient image),
 //!   its folder of EXRs and `material.json`, tsvbrdf folders, evaluation.
+//! - [`enlarge`]: texture optimization on coefficients with the
+//!   closed-form distance (section 6.1).
 //! - [`fit`]: a material from parameter maps at N times.
 //! - [`procedural`]: drying wet wood, for tests and the demo.
 //! - [`poly`]: fitting (one shared pseudo-inverse), Horner evaluation and
 //!   the closed-form time-integrated distance (eqs. 8, 11-14).
 
+pub mod enlarge;
 pub mod fit;
 pub mod material;
 pub mod poly;

@@ -149,7 +149,10 @@ impl Synthesis<'_> {
         if let (Some(s), Some(t)) = (sg, tg) {
             problem = problem.guides(s, t, self.guide_weight);
         }
-        if let Some(m) = &self.metric {
+        // Quilting scores blocks by FFT, which needs a weighted SSD; a
+        // custom metric starts from a mean-SSD quilt instead (only the
+        // start: every search after it uses the custom metric).
+        if let Some(m) = self.metric.as_ref().filter(|m| m.ssd_weights().is_some()) {
             problem = problem.metric(m.clone());
         }
         let block = (style.width().min(style.height()) / 3).max(2 * domain.radius() + 3);
