@@ -8,6 +8,8 @@
 //!   closed-form distance (section 6.1).
 //! - [`fit`]: a material from parameter maps at N times.
 //! - [`procedural`]: drying wet wood, for tests and the demo.
+//! - [`transfer`]: a material's behaviour carried onto a target texture,
+//!   exact at t0 (section 6.2, eq. 16).
 //! - [`poly`]: fitting (one shared pseudo-inverse), Horner evaluation and
 //!   the closed-form time-integrated distance (eqs. 8, 11-14).
 
@@ -16,5 +18,6 @@ pub mod fit;
 pub mod material;
 pub mod poly;
 pub mod procedural;
+pub mod transfer;
 
 pub use material::{Material, Param};

@@ -1,0 +1,123 @@
+//! Transfer (Meister et al., section 6.2): carry a material's time
+//! behaviour onto a static target texture. The guide is the
+//! histogram-equalised luminance of the material's albedo at t0 (source)
+//! and of the target (target); the coefficients are synthesized under that
+//! guide and then scaled per texel (eq. 16), a_out = a_in p_tex / p_in(t0),
+//! so that at t0 the result's albedo equals the target exactly.
+//!
+//! Guard: where |p_in(t0)| < 1e-3 the ratio is meaningless, and the
+//! constant coefficient is shifted instead (a_0 += p_tex - p_in(t0)), which
+//! keeps the equality at t0.
+
+use super::enlarge::metric;
+use super::material::Material;
+use super::poly::evaluate;
+use crate::error::{Error, Result};
+use crate::image::color::luminance;
+use crate::image::Image;
+use crate::synth::{OptimizeParams, Progress, Synthesis};
+
+/// Smallest |p_in(t0)| divided by.
+const RATIO_FLOOR: f32 = 1e-3;
+
+/// Ranks of a one-channel image's values mapped to [0, 1] (ties share the
+/// lowest rank): its histogram-equalised version.
+pub fn equalize(img: &Image) -> Image {
+    let v = img.data();
+    let mut order: Vec<usize> = (0..v.len()).collect();
+    order.sort_by(|&a, &b| v[a].total_cmp(&v[b]).then(a.cmp(&b)));
+    let mut out = vec![0.0f32; v.len()];
+    let scale = 1.0 / (v.len().max(2) - 1) as f32;
+    let mut rank = 0;
+    for (i, &idx) in order.iter().enumerate() {
+        if i > 0 && v[idx] != v[order[i - 1]] {
+            rank = i;
+        }
+        out[idx] = rank as f32 * scale;
+    }
+    Image::from_data(img.width(), img.height(), 1, out).expect("same size")
+}
+
+/// The material's behaviour on `target` (an RGB texture, the output's size),
+/// matching it exactly at time `t0`. The material needs a 3-channel
+/// `Diffuse` parameter.
+pub fn transfer(
+    material: &Material,
+    target: &Image,
+    t0: f32,
+    params: &OptimizeParams,
+    guide_weight: f32,
+    seed: u64,
+    progress: Option<Progress>,
+) -> Result<Material> {
+    if !(0.0..=1.0).contains(&t0) {
+        return Err(Error::invalid(format!("t0 must be in [0, 1], got {t0}")));
+    }
+    let kd =
+        material.param("diffuse").filter(|r| r.len() == 3).ok_or_else(|| Error::invalid("transfer needs a 3-channel Diffuse parameter"))?;
+    if target.channels() < 3 {
+        return Err(Error::invalid(format!("the target must be an RGB texture, it has {} channels", target.channels())));
+    }
+    let source_guide = equalize(&luminance(&material.evaluate(t0).select_channels(kd.clone())));
+    let target_guide = equalize(&luminance(&target.select_channels(0..3)));
+    let mut problem = Synthesis::new(&material.coefficients)
+        .size(target.width(), target.height())
+        .metric(metric(material, None)?)
+        .guides(&source_guide, &target_guide, guide_weight)
+        .seed(seed);
+    if let Some(p) = progress {
+        problem = problem.progress(p);
+    }
+    let mut coefficients = problem.optimize(params)?.image;
+    let m = material.degree + 1;
+    for y in 0..target.height() {
+        for x in 0..target.width() {
+            let want = target.pixel(x, y)[..3].to_vec();
+            let px = coefficients.pixel_mut(x, y);
+            for (c, w) in kd.clone().zip(want) {
+                let a = &mut px[c * m..(c + 1) * m];
+                let at_t0 = evaluate(a, t0);
+                if at_t0.abs() >= RATIO_FLOOR {
+                    let s = w / at_t0;
+                    a.iter_mut().for_each(|v| *v *= s);
+                } else {
+                    a[0] += w - at_t0;
+                }
+            }
+        }
+    }
+    Material::new(material.degree, material.params.clone(), coefficients)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stbrdf::fit::fit;
+    use crate::stbrdf::procedural::{drying_wood, drying_wood_params};
+
+    #[test]
+    fn the_result_equals_the_target_at_t0_and_follows_its_pattern() {
+        let (frames, times) = drying_wood(48, 48, 11, 4);
+        let wood = fit(&frames, &times, 3, drying_wood_params()).unwrap().material;
+        let target = crate::samples::cobbles(64, 56, 2);
+        let t0 = 1.0;
+        let out = transfer(&wood, &target, t0, &OptimizeParams::default(), 2.0, 3, None).unwrap();
+        let at = out.evaluate(t0);
+        let err = (0..56)
+            .flat_map(|y| (0..64).map(move |x| (x, y)))
+            .map(|(x, y)| (0..3).map(|c| (at.pixel(x, y)[c] - target.pixel(x, y)[c]).abs()).fold(0.0f32, f32::max))
+            .fold(0.0f32, f32::max);
+        assert!(err < 1e-5, "{err}");
+        // Earlier, wet: darker than the target where it was transferred.
+        let wet = out.evaluate(0.0);
+        let mean = |img: &Image| img.data().chunks_exact(img.channels()).map(|p| p[0]).sum::<f32>() / (64.0 * 56.0);
+        assert!(mean(&wet) < 0.9 * mean(&target), "wet {} vs target {}", mean(&wet), mean(&target));
+        assert!(transfer(&wood, &target, 1.5, &OptimizeParams::default(), 2.0, 3, None).is_err());
+    }
+
+    #[test]
+    fn equalization_spreads_values_evenly() {
+        let img = Image::from_fn(4, 1, 1, |x, _, p| p[0] = [0.1, 0.9, 0.5, 0.11][x]);
+        assert_eq!(equalize(&img).data(), &[0.0, 1.0, 2.0 / 3.0, 1.0 / 3.0]);
+    }
+}
