@@ -2,9 +2,14 @@
 //! coefficient image, with PatchMatch comparing whole time behaviours by
 //! the closed-form distance (eq. 14) per parameter group, and voting
 //! averaging coefficients, which is exact for polynomials (section 5.2).
+//!
+//! [`metric`] is that distance as the engine's pluggable group distance.
+//! [`enlarge`] runs the same costs faster: in the orthonormal (shifted
+//! Legendre) basis the distance is a plain SSD, so the engine's row-SSD
+//! path and a proper quilt start apply.
 
 use super::material::Material;
-use super::poly::PolyDistance;
+use super::poly::{Orthonormal, PolyDistance};
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::synth::{GroupDistance, OptimizeParams, PatchMetric, Progress, Synthesis};
@@ -41,6 +46,20 @@ pub fn metric(material: &Material, weights: Option<&[f32]>) -> Result<PatchMetri
     Ok(PatchMetric::from_groups(material.coefficients.channels(), groups))
 }
 
+/// The weighted-SSD twin of [`metric`] for coefficients in the orthonormal
+/// basis ([`Orthonormal`]): the same costs, on the engine's fast path.
+pub(crate) fn orthonormal_metric(material: &Material, weights: Option<&[f32]>) -> Result<PatchMetric> {
+    metric(material, weights)?;
+    let m = material.degree + 1;
+    let w: Vec<f32> = material
+        .params
+        .iter()
+        .enumerate()
+        .flat_map(|(i, p)| std::iter::repeat_n(weights.map_or(1.0, |w| w[i]) / p.channels as f32, p.channels * m))
+        .collect();
+    Ok(PatchMetric::ssd(w))
+}
+
 /// Enlarge (or shrink) `material` to `width` x `height`. With guides (a
 /// source guide of the material's size and a target guide of the output's),
 /// the synthesis follows them, e.g. gradients as in the paper's Fig. 9.
@@ -53,15 +72,22 @@ pub fn enlarge(
     seed: u64,
     progress: Option<Progress>,
 ) -> Result<Material> {
-    let mut problem = Synthesis::new(&material.coefficients).size(width, height).metric(metric(material, weights)?).seed(seed);
+    // Synthesis runs on the coefficients in the orthonormal basis, where the
+    // closed-form distance is a plain SSD (same costs, fast path), and the
+    // result is mapped back.
+    let basis = Orthonormal::new(material.degree);
+    let mut coefficients = material.coefficients.clone();
+    basis.apply(coefficients.data_mut(), true);
+    let mut problem = Synthesis::new(&coefficients).size(width, height).metric(orthonormal_metric(material, weights)?).seed(seed);
     if let Some((s, t, w)) = guides {
         problem = problem.guides(s, t, w);
     }
     if let Some(p) = progress {
         problem = problem.progress(p);
     }
-    let out = problem.optimize(params)?;
-    Material::new(material.degree, material.params.clone(), out.image)
+    let mut out = problem.optimize(params)?.image;
+    basis.apply(out.data_mut(), false);
+    Material::new(material.degree, material.params.clone(), out)
 }
 
 #[cfg(test)]

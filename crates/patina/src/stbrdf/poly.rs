@@ -113,6 +113,47 @@ impl TexelDistance for PolyDistance {
     }
 }
 
+/// The orthonormal change of basis for eq. (14): with H = L L^T
+/// (Cholesky), the coefficients c = L^T a are those of the polynomial in an
+/// orthonormal basis on [0, 1] (shifted Legendre polynomials), so
+/// ||c1 - c2||^2 = b^T H b exactly: the closed-form distance becomes a
+/// plain SSD, which the engine's fast paths (row SSD, FFT quilting) use.
+/// Linear, so averaging (voting) commutes with it.
+#[derive(Clone, Debug)]
+pub struct Orthonormal {
+    terms: usize,
+    /// L^T, row-major (upper triangular).
+    forward: Vec<f32>,
+    /// (L^T)^-1, row-major.
+    inverse: Vec<f32>,
+}
+
+impl Orthonormal {
+    pub fn new(degree: usize) -> Self {
+        let m = degree + 1;
+        let h = DMatrix::<f64>::from_fn(m, m, |j, k| 1.0 / (j + k + 1) as f64);
+        let l = h.cholesky().expect("the Hilbert matrix is positive definite").l();
+        let lt = l.transpose();
+        let inv = lt.clone().try_inverse().expect("triangular with a positive diagonal");
+        let flat = |a: &DMatrix<f64>| (0..m * m).map(|i| a[(i / m, i % m)] as f32).collect();
+        Orthonormal { terms: m, forward: flat(&lt), inverse: flat(&inv) }
+    }
+
+    /// Map every run of d + 1 coefficients in `values` through L^T (`true`)
+    /// or back (`false`), in place.
+    pub fn apply(&self, values: &mut [f32], forward: bool) {
+        let m = self.terms;
+        let mat = if forward { &self.forward } else { &self.inverse };
+        let mut tmp = [0.0f32; MAX_DEGREE + 1];
+        for chunk in values.chunks_exact_mut(m) {
+            for (j, t) in tmp[..m].iter_mut().enumerate() {
+                *t = mat[j * m..(j + 1) * m].iter().zip(chunk.iter()).map(|(a, b)| a * b).sum();
+            }
+            chunk.copy_from_slice(&tmp[..m]);
+        }
+    }
+}
+
 /// The same integral by the midpoint rule with `samples` points (eq. 15),
 /// for checking and for the benchmark.
 pub fn sampled_distance(a: &[f32], b: &[f32], degree: usize, samples: usize) -> f32 {
@@ -182,5 +223,14 @@ mod tests {
         assert!((f64::from(closed) - numeric).abs() < 1e-6, "{closed} vs {numeric}");
         assert!((sampled_distance(&a, &b, 3, 200) as f64 - numeric).abs() < 1e-4);
         assert_eq!(PolyDistance::new(3).cost(&a, &a), 0.0);
+        // In the orthonormal basis the distance is a plain SSD, and the map inverts.
+        let o = Orthonormal::new(3);
+        let (mut ca, mut cb) = (a, b);
+        o.apply(&mut ca, true);
+        o.apply(&mut cb, true);
+        let ssd: f32 = ca.iter().zip(&cb).map(|(p, q)| (p - q) * (p - q)).sum();
+        assert!((ssd - closed).abs() < 1e-5 * closed.max(1.0), "{ssd} vs {closed}");
+        o.apply(&mut ca, false);
+        assert!(ca.iter().zip(&a).all(|(p, q)| (p - q).abs() < 1e-5));
     }
 }

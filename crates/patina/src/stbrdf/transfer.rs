@@ -2,16 +2,17 @@
 //! behaviour onto a static target texture. The guide is the
 //! histogram-equalised luminance of the material's albedo at t0 (source)
 //! and of the target (target); the coefficients are synthesized under that
-//! guide and then scaled per texel (eq. 16), a_out = a_in p_tex / p_in(t0),
+//! guide (on the fast orthonormal-basis path of [`super::enlarge`]) and
+//! then scaled per texel (eq. 16), a_out = a_in p_tex / p_in(t0),
 //! so that at t0 the result's albedo equals the target exactly.
 //!
 //! Guard: where |p_in(t0)| < 1e-3 the ratio is meaningless, and the
 //! constant coefficient is shifted instead (a_0 += p_tex - p_in(t0)), which
 //! keeps the equality at t0.
 
-use super::enlarge::metric;
+use super::enlarge::orthonormal_metric;
 use super::material::Material;
-use super::poly::evaluate;
+use super::poly::{evaluate, Orthonormal};
 use crate::error::{Error, Result};
 use crate::image::color::luminance;
 use crate::image::Image;
@@ -60,15 +61,19 @@ pub fn transfer(
     }
     let source_guide = equalize(&luminance(&material.evaluate(t0).select_channels(kd.clone())));
     let target_guide = equalize(&luminance(&target.select_channels(0..3)));
-    let mut problem = Synthesis::new(&material.coefficients)
+    let basis = Orthonormal::new(material.degree);
+    let mut orthonormal = material.coefficients.clone();
+    basis.apply(orthonormal.data_mut(), true);
+    let mut problem = Synthesis::new(&orthonormal)
         .size(target.width(), target.height())
-        .metric(metric(material, None)?)
+        .metric(orthonormal_metric(material, None)?)
         .guides(&source_guide, &target_guide, guide_weight)
         .seed(seed);
     if let Some(p) = progress {
         problem = problem.progress(p);
     }
     let mut coefficients = problem.optimize(params)?.image;
+    basis.apply(coefficients.data_mut(), false);
     let m = material.degree + 1;
     for y in 0..target.height() {
         for x in 0..target.width() {
