@@ -10,6 +10,7 @@
 //! - [`procedural`]: drying wet wood, for tests and the demo.
 //! - [`transfer`]: a material's behaviour carried onto a target texture,
 //!   exact at t0 (section 6.2, eq. 16).
+//! - [`render`]: Lambert + GGX previews on a plane and a sphere (eqs. 6-7).
 //! - [`poly`]: fitting (one shared pseudo-inverse), Horner evaluation and
 //!   the closed-form time-integrated distance (eqs. 8, 11-14).
 
@@ -18,6 +19,7 @@ pub mod fit;
 pub mod material;
 pub mod poly;
 pub mod procedural;
+pub mod render;
 pub mod transfer;
 
 pub use material::{Material, Param};

@@ -1,0 +1,158 @@
+//! Shaded previews of a material at time t (Meister et al., eqs. 6-7):
+//! Lambert diffuse plus a GGX microfacet specular lobe with Smith
+//! shadowing-masking and Schlick's Fresnel, under one directional light and
+//! a fixed view, on a flat plane (one texel per pixel) and on a sphere
+//! (the material wrapped by longitude and latitude).
+//!
+//! Conventions: parameters are linear; alpha = roughness^2; Ks is the
+//! Fresnel reflectance at normal incidence (F0); a `Normal` parameter is a
+//! tangent-space map (n = 2 rgb - 1). The light has radiance pi, so a white
+//! Lambert surface facing it shows 1. Output is sRGB-encoded for viewing.
+
+use super::material::Material;
+use crate::image::color::linear_to_srgb;
+use crate::image::Image;
+use std::f32::consts::PI;
+
+/// Light and view directions (towards the light / the viewer, unit length
+/// after normalisation) and the ambient share.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lighting {
+    pub light: [f32; 3],
+    pub view: [f32; 3],
+    pub ambient: f32,
+}
+
+impl Default for Lighting {
+    fn default() -> Self {
+        Lighting { light: [0.45, -0.55, 0.70], view: [0.0, 0.0, 1.0], ambient: 0.08 }
+    }
+}
+
+fn normalize(v: [f32; 3]) -> [f32; 3] {
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-12);
+    [v[0] / l, v[1] / l, v[2] / l]
+}
+
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Outgoing radiance (linear RGB) of one texel: eq. (6) with the GGX lobe
+/// of eq. (7).
+pub fn shade(kd: [f32; 3], ks: [f32; 3], roughness: f32, n: [f32; 3], lighting: &Lighting) -> [f32; 3] {
+    let (l, v) = (normalize(lighting.light), normalize(lighting.view));
+    let h = normalize([l[0] + v[0], l[1] + v[1], l[2] + v[2]]);
+    let (nl, nv, nh, vh) = (dot(n, l), dot(n, v).max(1e-4), dot(n, h).max(0.0), dot(v, h).max(0.0));
+    let mut out = [0.0f32; 3];
+    for c in 0..3 {
+        out[c] = lighting.ambient * kd[c];
+    }
+    if nl <= 0.0 {
+        return out;
+    }
+    let alpha = (roughness * roughness).clamp(1e-4, 1.0);
+    let a2 = alpha * alpha;
+    let d = a2 / (PI * ((nh * nh) * (a2 - 1.0) + 1.0).powi(2));
+    let g1 = |x: f32| 2.0 * x / (x + (a2 + (1.0 - a2) * x * x).sqrt());
+    let g = g1(nl) * g1(nv);
+    let schlick = (1.0 - vh).powi(5);
+    for c in 0..3 {
+        let f = ks[c] + (1.0 - ks[c]) * schlick;
+        let spec = d * g * f / (4.0 * nl * nv);
+        out[c] += PI * (kd[c] / PI + spec) * nl;
+    }
+    out
+}
+
+/// The texel's parameters at (x, y) of an evaluated frame.
+fn texel(material: &Material, frame: &Image, x: usize, y: usize) -> ([f32; 3], [f32; 3], f32, [f32; 3]) {
+    let p = frame.pixel(x, y);
+    let rgb = |name: &str, default: [f32; 3]| -> [f32; 3] {
+        match material.param(name) {
+            Some(r) if r.len() == 3 => [p[r.start], p[r.start + 1], p[r.start + 2]],
+            Some(r) => [p[r.start]; 3],
+            None => default,
+        }
+    };
+    let kd = rgb("diffuse", [0.5; 3]);
+    let ks = rgb("specular", [0.04; 3]);
+    let roughness = material.param("roughness").map_or(0.5, |r| p[r.start]);
+    let normal = match material.param("normal") {
+        Some(r) if r.len() == 3 => normalize([2.0 * p[r.start] - 1.0, 2.0 * p[r.start + 1] - 1.0, 2.0 * p[r.start + 2] - 1.0]),
+        _ => [0.0, 0.0, 1.0],
+    };
+    (kd, ks, roughness.clamp(0.0, 1.0), normal)
+}
+
+/// The material at time t on a flat plane, one texel per pixel (sRGB).
+pub fn plane(material: &Material, t: f32, lighting: &Lighting) -> Image {
+    let frame = material.evaluate(t);
+    let (w, h) = material.size();
+    Image::from_fn(w, h, 3, |x, y, px| {
+        let (kd, ks, r, n) = texel(material, &frame, x, y);
+        let c = shade(kd, ks, r, n, lighting);
+        for (o, v) in px.iter_mut().zip(c) {
+            *o = linear_to_srgb(v.clamp(0.0, 1.0));
+        }
+    })
+}
+
+/// The material at time t wrapped on a sphere seen from the front, in a
+/// `size` x `size` image on dark grey (sRGB).
+pub fn sphere(material: &Material, t: f32, size: usize, lighting: &Lighting) -> Image {
+    let frame = material.evaluate(t);
+    let (w, h) = material.size();
+    Image::from_fn(size, size, 3, |x, y, px| {
+        let r = size as f32 / 2.0;
+        let (u, v) = ((x as f32 + 0.5 - r) / r, (r - y as f32 - 0.5) / r);
+        let z2 = 1.0 - u * u - v * v;
+        if z2 <= 0.0 {
+            px.iter_mut().for_each(|o| *o = 0.12);
+            return;
+        }
+        let n_geo = [u, v, z2.sqrt()];
+        // Longitude across the front half maps to the texture's width,
+        // latitude to its height.
+        let lon = n_geo[0].atan2(n_geo[2]);
+        let lat = n_geo[1].asin();
+        let tx = (((lon / PI + 0.5) * w as f32) as usize).min(w - 1);
+        let ty = (((0.5 - lat / PI) * h as f32) as usize).min(h - 1);
+        let (kd, ks, rough, n_tan) = texel(material, &frame, tx, ty);
+        // Tangent frame: T along longitude, B along latitude.
+        let tangent = normalize([n_geo[2], 0.0, -n_geo[0]]);
+        let bitangent = [
+            n_geo[1] * tangent[2] - n_geo[2] * tangent[1],
+            n_geo[2] * tangent[0] - n_geo[0] * tangent[2],
+            n_geo[0] * tangent[1] - n_geo[1] * tangent[0],
+        ];
+        let n = normalize([
+            n_tan[0] * tangent[0] + n_tan[1] * bitangent[0] + n_tan[2] * n_geo[0],
+            n_tan[0] * tangent[1] + n_tan[1] * bitangent[1] + n_tan[2] * n_geo[1],
+            n_tan[0] * tangent[2] + n_tan[1] * bitangent[2] + n_tan[2] * n_geo[2],
+        ]);
+        let c = shade(kd, ks, rough, n, lighting);
+        for (o, v) in px.iter_mut().zip(c) {
+            *o = linear_to_srgb(v.clamp(0.0, 1.0));
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lambert_facing_the_light_shows_its_albedo_and_the_lobe_peaks_at_the_mirror_direction() {
+        let head_on = Lighting { light: [0.0, 0.0, 1.0], view: [0.0, 0.0, 1.0], ambient: 0.0 };
+        let c = shade([0.5, 0.25, 0.1], [0.0; 3], 0.8, [0.0, 0.0, 1.0], &head_on);
+        // With Ks = 0, Schlick's F is 0 at normal incidence: only Lambert remains.
+        assert!((c[0] - 0.5).abs() < 1e-4 && (c[1] - 0.25).abs() < 1e-4, "{c:?}");
+        let glossy = |n: [f32; 3]| {
+            shade([0.0; 3], [0.04; 3], 0.2, normalize(n), &Lighting { light: [0.5, 0.0, 0.866], view: [-0.5, 0.0, 0.866], ambient: 0.0 })[0]
+        };
+        assert!(glossy([0.0, 0.0, 1.0]) > 5.0 * glossy([0.3, 0.0, 1.0]), "the highlight is where the half vector meets the normal");
+        let below = shade([1.0; 3], [0.04; 3], 0.5, [0.0, 0.0, 1.0], &Lighting { light: [0.0, 0.0, -1.0], ..Lighting::default() });
+        assert!(below.iter().all(|v| (v - 0.08).abs() < 1e-6), "only ambient when the light is behind");
+    }
+}
