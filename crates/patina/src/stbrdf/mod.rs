@@ -11,6 +11,7 @@
 //! - [`transfer`]: a material's behaviour carried onto a target texture,
 //!   exact at t0 (section 6.2, eq. 16).
 //! - [`render`]: Lambert + GGX previews on a plane and a sphere (eqs. 6-7).
+//! - [`shader`]: WGSL and GLSL that evaluate the material at time t.
 //! - [`poly`]: fitting (one shared pseudo-inverse), Horner evaluation and
 //!   the closed-form time-integrated distance (eqs. 8, 11-14).
 
@@ -20,6 +21,7 @@ pub mod material;
 pub mod poly;
 pub mod procedural;
 pub mod render;
+pub mod shader;
 pub mod transfer;
 
 pub use material::{Material, Param};
