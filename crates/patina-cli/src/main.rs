@@ -4,6 +4,7 @@
 mod demo;
 mod output;
 mod progress;
+mod stbrdf;
 mod synth;
 mod ttf;
 mod weather;
@@ -34,6 +35,8 @@ enum Command {
     WeatherTransfer(weather::TransferArgs),
     /// Synthesize a larger time-lapse from a small one (Enrique, Koudelka et al.): whole time columns quilted along one seam.
     Ttf(ttf::Args),
+    /// Spatio-temporal BRDF materials (Meister et al. 2021): fit, enlarge, transfer, render.
+    Stbrdf(stbrdf::Args),
     /// Run patina on built-in procedural samples, writing into ./patina-demo/.
     Demo(demo::Args),
 }
@@ -61,6 +64,7 @@ fn main() -> ExitCode {
         Command::Intact(a) => weather::run_intact(a),
         Command::WeatherTransfer(a) => weather::run_transfer(a),
         Command::Ttf(a) => ttf::run(a),
+        Command::Stbrdf(a) => stbrdf::run(a),
         Command::Demo(a) => demo::run(a),
     };
     match result {

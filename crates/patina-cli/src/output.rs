@@ -163,3 +163,24 @@ pub fn refuse_overwrite(outputs: &[PathBuf], inputs: &[&Path]) -> Result<()> {
     let outs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).filter(|p| p.parent().is_some_and(Path::is_dir)).collect();
     check_outputs(&outs, inputs)
 }
+
+/// Two images side by side, top-aligned, on dark grey (8 px apart), with
+/// the second one's channels (for comparison GIFs).
+pub fn side_by_side(input: &Image, output: &Image) -> Image {
+    const GAP: usize = 8;
+    let c = output.channels();
+    let (w, h) = (input.width() + GAP + output.width(), input.height().max(output.height()));
+    Image::from_fn(w, h, c, |x, y, p| {
+        let src = if x < input.width() && y < input.height() {
+            Some(input.pixel(x, y))
+        } else if x >= input.width() + GAP && y < output.height() {
+            Some(output.pixel(x - input.width() - GAP, y))
+        } else {
+            None
+        };
+        match src {
+            Some(s) => p.iter_mut().zip(s.iter().cycle()).for_each(|(d, v)| *d = *v),
+            None => p.iter_mut().for_each(|d| *d = 0.15),
+        }
+    })
+}

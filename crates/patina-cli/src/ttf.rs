@@ -1,7 +1,7 @@
 //! `patina ttf`: time-varying texture synthesis from a time-lapse
 //! (Enrique, Koudelka et al.).
 
-use crate::output::{mkdir, parse_size, refuse_overwrite, sequence_outputs, write_sequence, Manifest, Stopwatch};
+use crate::output::{mkdir, parse_size, refuse_overwrite, sequence_outputs, side_by_side, write_sequence, Manifest, Stopwatch};
 use crate::progress::with_bar;
 use patina::image::io::{self, save_gif, save_png, BitDepth};
 use patina::image::sequence::{load_sequence, Sequence};
@@ -241,24 +241,4 @@ pub fn run(args: Args) -> Result<()> {
 fn normalised(img: &Image) -> Image {
     let max = img.value_range().1.max(1e-12);
     img.map(|v| v / max)
-}
-
-/// The input frame (top left) beside the output frame, on dark grey.
-fn side_by_side(input: &Image, output: &Image) -> Image {
-    const GAP: usize = 8;
-    let c = output.channels();
-    let (w, h) = (input.width() + GAP + output.width(), input.height().max(output.height()));
-    Image::from_fn(w, h, c, |x, y, p| {
-        let src = if x < input.width() && y < input.height() {
-            Some(input.pixel(x, y))
-        } else if x >= input.width() + GAP && y < output.height() {
-            Some(output.pixel(x - input.width() - GAP, y))
-        } else {
-            None
-        };
-        match src {
-            Some(s) => p.iter_mut().zip(s.iter().cycle()).for_each(|(d, v)| *d = *v),
-            None => p.iter_mut().for_each(|d| *d = 0.15),
-        }
-    })
 }

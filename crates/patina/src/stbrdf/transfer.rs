@@ -6,9 +6,12 @@
 //! then scaled per texel (eq. 16), a_out = a_in p_tex / p_in(t0),
 //! so that at t0 the result's albedo equals the target exactly.
 //!
-//! Guard: where |p_in(t0)| < 1e-3 the ratio is meaningless, and the
-//! constant coefficient is shifted instead (a_0 += p_tex - p_in(t0)), which
-//! keeps the equality at t0.
+//! Guard (ours): the ratio s = p_tex / p_in(t0) is clamped to [1/4, 4] (and
+//! taken as 1 where |p_in(t0)| < 1e-3), and what the clamped ratio misses is
+//! added to the constant coefficient: a_out = s a_in + (p_tex - s p_in(t0))
+//! e_0. This keeps the equality at t0 exactly; without the clamp a dark
+//! source at t0 (bare soil under later snow) multiplied the target by 15
+//! and blew it out to white.
 
 use super::enlarge::orthonormal_metric;
 use super::material::Material;
@@ -20,6 +23,8 @@ use crate::synth::{OptimizeParams, Progress, Synthesis};
 
 /// Smallest |p_in(t0)| divided by.
 const RATIO_FLOOR: f32 = 1e-3;
+/// Largest scale (and smallest, inverted) eq. 16 may apply.
+const RATIO_LIMIT: f32 = 4.0;
 
 /// Ranks of a one-channel image's values mapped to [0, 1] (ties share the
 /// lowest rank): its histogram-equalised version.
@@ -82,12 +87,9 @@ pub fn transfer(
             for (c, w) in kd.clone().zip(want) {
                 let a = &mut px[c * m..(c + 1) * m];
                 let at_t0 = evaluate(a, t0);
-                if at_t0.abs() >= RATIO_FLOOR {
-                    let s = w / at_t0;
-                    a.iter_mut().for_each(|v| *v *= s);
-                } else {
-                    a[0] += w - at_t0;
-                }
+                let s = if at_t0.abs() >= RATIO_FLOOR { (w / at_t0).clamp(1.0 / RATIO_LIMIT, RATIO_LIMIT) } else { 1.0 };
+                a.iter_mut().for_each(|v| *v *= s);
+                a[0] += w - s * at_t0;
             }
         }
     }

@@ -1,0 +1,367 @@
+//! `patina stbrdf fit|enlarge|transfer|render`: spatio-temporal BRDF
+//! materials (Meister et al. 2021).
+
+use crate::output::{check_outputs, mkdir, parse_size, refuse_overwrite, side_by_side, Manifest, Stopwatch};
+use crate::progress::with_bar;
+use patina::image::io::{self, save_gif, save_png, BitDepth};
+use patina::image::sequence::{load_sequence, natural_cmp};
+use patina::image::Image;
+use patina::stbrdf::{enlarge, fit, render, shader, transfer, Material, Param};
+use patina::synth::OptimizeParams;
+use patina::{Error, Result};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(clap::Subcommand)]
+pub enum Command {
+    /// Fit polynomials in time to parameter maps sampled at N times.
+    ///
+    /// FOLDER holds one subfolder per time step (in natural order), each with one image per parameter named
+    /// Diffuse, Specular, Roughness, Normal, Height or anything else (.exr or .png; single-valued maps may be grey).
+    /// A folder of plain RGB frames (a time-lapse) is fitted as an albedo-only material (Diffuse).
+    /// Times are evenly spaced over [0, 1] unless --times gives them.
+    Fit(FitArgs),
+    /// Enlarge a material by texture optimization on its coefficients (closed-form time-integrated distance).
+    Enlarge(EnlargeArgs),
+    /// Carry a material's time behaviour onto a static texture, equal to it at --t0.
+    Transfer(TransferArgs),
+    /// Evaluate a material at several times: parameter maps, shaded plane and sphere, GIF, WGSL/GLSL shaders.
+    Render(RenderArgs),
+}
+
+#[derive(clap::Args)]
+pub struct FitArgs {
+    /// Folder of time steps (see above).
+    pub input: PathBuf,
+    /// Output material folder ({Name}-{i}.exr and material.json).
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Polynomial degree d (1..6).
+    #[arg(long, default_value_t = 3)]
+    pub degree: usize,
+    /// Times of the steps, comma-separated in [0, 1] [default: evenly spaced]
+    #[arg(long, value_delimiter = ',')]
+    pub times: Option<Vec<f32>>,
+}
+
+#[derive(clap::Args)]
+pub struct EnlargeArgs {
+    /// Material folder (ours or meistdan/tsvbrdf's layout).
+    pub material: PathBuf,
+    /// Output material folder.
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Scale factor for both sides (ignored with --size).
+    #[arg(long, default_value_t = 2.0)]
+    pub scale: f32,
+    /// Output size WxH instead of --scale.
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
+    /// Weight per parameter, comma-separated in the material's order [default: 1 each]
+    #[arg(long, value_delimiter = ',')]
+    pub weights: Option<Vec<f32>>,
+    /// Guide of the material's size (e.g. a gradient), with --target-guide.
+    #[arg(long, requires = "target_guide")]
+    pub source_guide: Option<PathBuf>,
+    /// Guide of the output's size, with --source-guide.
+    #[arg(long, requires = "source_guide")]
+    pub target_guide: Option<PathBuf>,
+    /// Weight of the guides against the material.
+    #[arg(long, default_value_t = 1.0)]
+    pub guide_weight: f32,
+    /// Random seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+#[derive(clap::Args)]
+pub struct TransferArgs {
+    /// Material folder whose time behaviour is carried over.
+    pub material: PathBuf,
+    /// The static RGB texture that takes it on (its size is the output's).
+    #[arg(long)]
+    pub target: PathBuf,
+    /// The time at which the result equals the target exactly.
+    #[arg(long, default_value_t = 0.0)]
+    pub t0: f32,
+    /// Output material folder.
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Weight of the equalised-luminance guides.
+    #[arg(long, default_value_t = 2.0)]
+    pub guide_weight: f32,
+    /// Random seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+#[derive(clap::Args)]
+pub struct RenderArgs {
+    /// Material folder.
+    pub material: PathBuf,
+    /// Output folder.
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Times to render, comma-separated in [0, 1] (overrides --frames).
+    #[arg(long, value_delimiter = ',')]
+    pub times: Option<Vec<f32>>,
+    /// Number of evenly spaced times over [0, 1].
+    #[arg(long, default_value_t = 11)]
+    pub frames: usize,
+    /// Side of the sphere preview in pixels.
+    #[arg(long, default_value_t = 256)]
+    pub sphere: usize,
+    /// Milliseconds per frame in sequence.gif.
+    #[arg(long, default_value_t = 150)]
+    pub gif_delay: u32,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    match args.command {
+        Command::Fit(a) => run_fit(a),
+        Command::Enlarge(a) => run_enlarge(a),
+        Command::Transfer(a) => run_transfer(a),
+        Command::Render(a) => run_render(a),
+    }
+}
+
+/// Files a material folder holds after saving `m`.
+fn material_outputs(dir: &Path, m: &Material) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = m.params.iter().flat_map(|p| (0..=m.degree).map(move |k| dir.join(format!("{}-{k}.exr", p.name)))).collect();
+    v.push(dir.join("material.json"));
+    v.push(dir.join("manifest.json"));
+    v
+}
+
+fn load_material(dir: &Path) -> Result<Material> {
+    Material::load(dir)
+}
+
+/// The parameter a file stem names, with its canonical spelling.
+fn param_name(stem: &str) -> String {
+    let lower = stem.to_lowercase();
+    for name in ["Diffuse", "Specular", "Roughness", "Normal", "Height"] {
+        if lower == name.to_lowercase() || (name == "Diffuse" && (lower == "albedo" || lower == "basecolor" || lower == "kd")) {
+            return name.to_string();
+        }
+    }
+    stem.to_string()
+}
+
+/// Parameter maps per time step from a folder of subfolders, or an
+/// albedo-only material from a folder of frames.
+fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>, Vec<PathBuf>)> {
+    let entries = std::fs::read_dir(dir).map_err(|source| Error::Read { path: dir.into(), source })?;
+    let mut subdirs: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_dir()).collect();
+    subdirs.sort_by(|a, b| natural_cmp(&a.to_string_lossy(), &b.to_string_lossy()));
+    if subdirs.is_empty() {
+        let seq = load_sequence(dir)?;
+        let frames = seq.frames.into_iter().map(|f| if f.channels() >= 3 { f.select_channels(0..3) } else { f }).collect::<Vec<_>>();
+        let c = frames[0].channels();
+        return Ok((frames, vec![Param { name: "Diffuse".into(), channels: c }], seq.names.iter().map(PathBuf::from).collect()));
+    }
+    let mut params: Vec<Param> = Vec::new();
+    let mut files_of_first: Vec<String> = Vec::new();
+    let mut steps = Vec::new();
+    let mut inputs = Vec::new();
+    for (i, sub) in subdirs.iter().enumerate() {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(sub)
+            .map_err(|source| Error::Read { path: sub.clone(), source })?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().and_then(|e| e.to_str()).is_some_and(|e| ["exr", "png"].contains(&e.to_lowercase().as_str())))
+            .collect();
+        files.sort_by_key(|p| {
+            let n = param_name(&p.file_stem().unwrap_or_default().to_string_lossy());
+            (["Diffuse", "Specular", "Roughness", "Normal", "Height"].iter().position(|c| *c == n).unwrap_or(5), n)
+        });
+        let stems: Vec<String> = files.iter().map(|p| param_name(&p.file_stem().unwrap_or_default().to_string_lossy())).collect();
+        if i == 0 {
+            if files.is_empty() {
+                return Err(Error::invalid(format!("{} holds no .exr or .png parameter maps", sub.display())));
+            }
+            files_of_first = stems.clone();
+        } else if stems != files_of_first {
+            return Err(Error::invalid(format!(
+                "{} holds parameters {:?} but the first step holds {:?}",
+                sub.display(),
+                stems,
+                files_of_first
+            )));
+        }
+        let maps = files.iter().map(io::load).collect::<Result<Vec<_>>>()?;
+        if i == 0 {
+            params = stems
+                .iter()
+                .zip(&maps)
+                .map(|(n, img)| {
+                    let single = matches!(n.as_str(), "Roughness" | "Height") || img.channels() < 3;
+                    Param { name: n.clone(), channels: if single { 1 } else { 3 } }
+                })
+                .collect();
+        }
+        let parts: Vec<Image> = params.iter().zip(&maps).map(|(p, img)| img.select_channels(0..p.channels.min(img.channels()))).collect();
+        let refs: Vec<&Image> = parts.iter().collect();
+        let step = Image::concat_channels(&refs).map_err(|e| Error::invalid(format!("{}: {e}", sub.display())))?;
+        steps.push(step);
+        inputs.extend(files);
+    }
+    Ok((steps, params, inputs))
+}
+
+fn run_fit(args: FitArgs) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let (steps, params, inputs) = load_steps(&args.input)?;
+    let input_refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    let n = steps.len();
+    let times = match &args.times {
+        Some(t) if t.len() != n => return Err(Error::invalid(format!("--times lists {} times for {n} time steps", t.len()))),
+        Some(t) if t.iter().any(|v| !(0.0..=1.0).contains(v)) => return Err(Error::invalid("--times must lie in [0, 1]")),
+        Some(t) => t.clone(),
+        None => (0..n).map(|i| if n > 1 { i as f32 / (n - 1) as f32 } else { 0.0 }).collect(),
+    };
+    let fitted = fit::fit(&steps, &times, args.degree, params)?;
+    let mut manifest = Manifest::new("stbrdf fit", 0);
+    manifest.timings_ms.insert("fit".into(), clock.lap());
+    refuse_overwrite(&material_outputs(&args.out, &fitted.material), &input_refs)?;
+    fitted.material.save(&args.out)?;
+    manifest.timings_ms.insert("save".into(), clock.lap());
+    let mut channel = 0;
+    let mut rms = serde_json::Map::new();
+    for p in &fitted.material.params {
+        rms.insert(p.name.clone(), json!(fitted.rms[channel..channel + p.channels]));
+        channel += p.channels;
+    }
+    manifest.metrics.insert("rms".into(), serde_json::Value::Object(rms));
+    manifest.params = json!({ "degree": args.degree, "times": times, "params": fitted.material.params.iter().map(|p| json!({"name": p.name, "channels": p.channels})).collect::<Vec<_>>() });
+    manifest.inputs = vec![args.input.clone()];
+    manifest.write(&args.out.join("manifest.json"))?;
+    eprintln!("patina stbrdf fit: {} time steps -> degree-{} material in {}", n, args.degree, args.out.display());
+    Ok(())
+}
+
+fn run_enlarge(args: EnlargeArgs) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let material = load_material(&args.material)?;
+    let (w, h) = material.size();
+    let size = match args.size {
+        Some(s) => s,
+        None if args.scale.is_finite() && args.scale > 0.0 => {
+            (((w as f32 * args.scale).round() as usize).max(1), ((h as f32 * args.scale).round() as usize).max(1))
+        }
+        None => return Err(Error::invalid(format!("--scale must be positive, got {}", args.scale))),
+    };
+    refuse_overwrite(&material_outputs(&args.out, &material), &[&args.material])?;
+    let guides = match (&args.source_guide, &args.target_guide) {
+        (Some(s), Some(t)) => Some((io::load(s)?, io::load(t)?)),
+        _ => None,
+    };
+    let params = OptimizeParams::default();
+    let out = with_bar("enlarge", |report| {
+        enlarge::enlarge(
+            &material,
+            size,
+            args.weights.as_deref(),
+            guides.as_ref().map(|(s, t)| (s, t, args.guide_weight)),
+            &params,
+            args.seed,
+            Some(report),
+        )
+    })?;
+    let mut manifest = Manifest::new("stbrdf enlarge", args.seed);
+    manifest.timings_ms.insert("enlarge".into(), clock.lap());
+    out.save(&args.out)?;
+    manifest.params = json!({ "size": [size.0, size.1], "weights": args.weights, "guide_weight": args.guide_weight, "optimize": params });
+    manifest.inputs =
+        [Some(&args.material), args.source_guide.as_ref(), args.target_guide.as_ref()].into_iter().flatten().cloned().collect();
+    manifest.write(&args.out.join("manifest.json"))?;
+    eprintln!("patina stbrdf enlarge: {}x{} -> {}x{} in {}", w, h, size.0, size.1, args.out.display());
+    Ok(())
+}
+
+fn run_transfer(args: TransferArgs) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let material = load_material(&args.material)?;
+    let target = io::load(&args.target)?;
+    refuse_overwrite(&material_outputs(&args.out, &material), &[&args.material, &args.target])?;
+    let params = OptimizeParams::default();
+    let out = with_bar("transfer", |report| {
+        transfer::transfer(&material, &target, args.t0, &params, args.guide_weight, args.seed, Some(report))
+    })?;
+    let mut manifest = Manifest::new("stbrdf transfer", args.seed);
+    manifest.timings_ms.insert("transfer".into(), clock.lap());
+    out.save(&args.out)?;
+    manifest.params = json!({ "t0": args.t0, "guide_weight": args.guide_weight, "optimize": params });
+    manifest.inputs = vec![args.material.clone(), args.target.clone()];
+    manifest.write(&args.out.join("manifest.json"))?;
+    eprintln!("patina stbrdf transfer: wrote {}", args.out.display());
+    Ok(())
+}
+
+fn run_render(args: RenderArgs) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let material = load_material(&args.material)?;
+    let times: Vec<f32> = match &args.times {
+        Some(t) if t.is_empty() || t.iter().any(|v| !(0.0..=1.0).contains(v)) => {
+            return Err(Error::invalid("--times must list times in [0, 1]"))
+        }
+        Some(t) => t.clone(),
+        None if args.frames == 0 => return Err(Error::invalid("--frames must be at least 1")),
+        None => (0..args.frames).map(|i| if args.frames > 1 { i as f32 / (args.frames - 1) as f32 } else { 0.0 }).collect(),
+    };
+    if args.sphere < 8 || args.sphere > 4096 {
+        return Err(Error::invalid(format!("--sphere must be 8..=4096 pixels, got {}", args.sphere)));
+    }
+    let outputs = [args.out.join("material.wgsl"), args.out.join("material.glsl"), args.out.join("sequence.gif")];
+    check_outputs(
+        &outputs.iter().map(PathBuf::as_path).filter(|p| p.parent().is_some_and(Path::is_dir)).collect::<Vec<_>>(),
+        &[&args.material],
+    )?;
+    mkdir(&args.out.join("frames"))?;
+    let mut manifest = Manifest::new("stbrdf render", 0);
+    let lighting = render::Lighting::default();
+    let mut previews = Vec::new();
+    for (i, &t) in times.iter().enumerate() {
+        let frame = material.evaluate(t);
+        for p in &material.params {
+            let r = material.param(&p.name).expect("own parameter");
+            let name = match p.name.as_str() {
+                "Diffuse" => "basecolor".to_string(),
+                other => other.to_lowercase(),
+            };
+            let rel = PathBuf::from("frames").join(format!("{i:03}_{name}.png"));
+            save_png(&frame.select_channels(r), args.out.join(&rel), BitDepth::Eight)?;
+            manifest.outputs.push(rel);
+        }
+        let plane = render::plane(&material, t, &lighting);
+        let sphere = render::sphere(&material, t, args.sphere, &lighting);
+        for (kind, img) in [("plane", &plane), ("sphere", &sphere)] {
+            let rel = PathBuf::from("frames").join(format!("{i:03}_{kind}.png"));
+            save_png(img, args.out.join(&rel), BitDepth::Eight)?;
+            manifest.frames.push(crate::output::FrameEntry { t, path: rel });
+        }
+        previews.push(side_by_side(&plane, &sphere));
+    }
+    save_gif(&previews.iter().collect::<Vec<_>>(), args.out.join("sequence.gif"), args.gif_delay)?;
+    io::write_atomic(&args.out.join("material.wgsl"), |b| {
+        b.extend_from_slice(shader::wgsl(&material).as_bytes());
+        Ok(())
+    })?;
+    io::write_atomic(&args.out.join("material.glsl"), |b| {
+        b.extend_from_slice(shader::glsl(&material).as_bytes());
+        Ok(())
+    })?;
+    manifest.outputs.extend(["sequence.gif".into(), "material.wgsl".into(), "material.glsl".into()]);
+    manifest.timings_ms.insert("render".into(), clock.lap());
+    manifest.params =
+        json!({ "times": times, "sphere": args.sphere, "light": lighting.light, "view": lighting.view, "ambient": lighting.ambient });
+    manifest.inputs = vec![args.material.clone()];
+    manifest.write(&args.out.join("manifest.json"))?;
+    eprintln!("patina stbrdf render: {} times to {}", times.len(), args.out.display());
+    Ok(())
+}
