@@ -290,3 +290,71 @@ fn ttf_bad_input_is_one_line_exit_2_and_leaves_nothing() {
     fails_cleanly(&dir, &["ttf", s(&nested.join("frames")), "-o", s(&nested)], "overwrite");
     assert_eq!(std::fs::read(nested.join("frames/000.png")).unwrap(), before);
 }
+
+/// Drying-wood parameter maps at `n` times: one subfolder per step with
+/// Diffuse.png, Specular.png and Roughness.png.
+fn material_steps(dir: &Path, n: usize) -> PathBuf {
+    let root = dir.join("steps");
+    for i in 0..n {
+        let t = i as f32 / (n - 1) as f32;
+        let maps = patina::stbrdf::procedural::drying_wood_at(40, 32, t, 1);
+        let d = root.join(format!("t{i}"));
+        std::fs::create_dir_all(&d).unwrap();
+        save_png(&maps.select_channels(0..3), d.join("Diffuse.png"), BitDepth::Sixteen).unwrap();
+        save_png(&maps.select_channels(3..6), d.join("Specular.png"), BitDepth::Sixteen).unwrap();
+        save_png(&maps.select_channels(6..7), d.join("Roughness.png"), BitDepth::Sixteen).unwrap();
+    }
+    root
+}
+
+#[test]
+fn stbrdf_fits_enlarges_transfers_and_renders() {
+    let dir = scratch("stbrdf");
+    let steps = material_steps(&dir, 8);
+    let mat = dir.join("mat");
+    let ok = |args: &[&str]| {
+        let r = patina(args, None);
+        assert!(r.status.success(), "{args:?}: {}", String::from_utf8_lossy(&r.stderr));
+    };
+    ok(&["stbrdf", "fit", s(&steps), "-o", s(&mat), "--degree", "3"]);
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(mat.join("manifest.json")).unwrap()).unwrap();
+    let rms: Vec<f64> =
+        m["metrics"]["rms"].as_object().unwrap().values().flat_map(|v| v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap())).collect();
+    assert_eq!(rms.len(), 7);
+    assert!(rms.iter().all(|&r| r <= 0.03), "{rms:?}");
+    let loaded = patina::stbrdf::Material::load(&mat).unwrap();
+    assert_eq!((loaded.degree, loaded.channels(), loaded.size()), (3, 7, (40, 32)));
+    let big = dir.join("big");
+    ok(&["stbrdf", "enlarge", s(&mat), "-o", s(&big), "--scale", "1.5", "--seed", "2"]);
+    assert_eq!(patina::stbrdf::Material::load(&big).unwrap().size(), (60, 48));
+    let target = dir.join("target.png");
+    save_png(&patina::samples::cobbles(50, 40, 1), &target, BitDepth::Eight).unwrap();
+    let moved = dir.join("moved");
+    ok(&["stbrdf", "transfer", s(&mat), "--target", s(&target), "--t0", "1", "-o", s(&moved)]);
+    let renders = dir.join("renders");
+    ok(&["stbrdf", "render", s(&moved), "-o", s(&renders), "--frames", "3", "--sphere", "64"]);
+    assert_eq!(listing(&renders), vec!["frames", "manifest.json", "material.glsl", "material.wgsl", "sequence.gif"]);
+    // 3 times x (3 parameter maps + plane + sphere).
+    assert_eq!(listing(&renders.join("frames")).len(), 15);
+    let last = load(renders.join("frames/002_basecolor.png")).unwrap();
+    let want = load(&target).unwrap();
+    let err = last.data().iter().zip(want.data()).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    assert!(err <= 1.5 / 255.0, "at t0 = 1 the transferred base colour is the target ({err})");
+    assert!(std::fs::read_to_string(renders.join("material.wgsl")).unwrap().contains("fn evaluate_material"));
+}
+
+#[test]
+fn stbrdf_bad_input_is_one_line_exit_2_and_leaves_nothing() {
+    let dir = scratch("stbrdf-bad");
+    let steps = material_steps(&dir, 3);
+    let out = dir.join("out");
+    let o = s(&out);
+    fails_cleanly(&dir, &["stbrdf", "fit", s(&dir.join("nothing")), "-o", o], "nothing");
+    fails_cleanly(&dir, &["stbrdf", "fit", s(&steps), "-o", o, "--degree", "9"], "degree");
+    fails_cleanly(&dir, &["stbrdf", "fit", s(&steps), "-o", o, "--degree", "3"], "time steps");
+    fails_cleanly(&dir, &["stbrdf", "fit", s(&steps), "-o", o, "--degree", "1", "--times", "0,1"], "--times");
+    std::fs::remove_file(steps.join("t2/Specular.png")).unwrap();
+    fails_cleanly(&dir, &["stbrdf", "fit", s(&steps), "-o", o, "--degree", "1"], "parameters");
+    fails_cleanly(&dir, &["stbrdf", "render", s(&steps), "-o", o], "material");
+    fails_cleanly(&dir, &["stbrdf", "enlarge", s(&dir.join("nothing")), "-o", o], "not a material folder");
+}
