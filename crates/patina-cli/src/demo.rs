@@ -64,7 +64,40 @@ pub fn run(args: Args) -> Result<()> {
     manifest.write(&args.out.join("manifest.json"))?;
     eprintln!("patina demo: wrote {} images and manifest.json to {}", files.len(), args.out.display());
     weather_demo(&args)?;
-    ttf_demo(&args)
+    ttf_demo(&args)?;
+    stbrdf_demo(&args)
+}
+
+/// A procedural drying-wood material (64 x 64, 11 time steps) fitted with
+/// cubics, enlarged to 128 x 128 and rendered at 6 times into OUT/stbrdf/.
+fn stbrdf_demo(args: &Args) -> Result<()> {
+    use patina::stbrdf::{enlarge, fit, procedural};
+    let dir = args.out.join("stbrdf");
+    let (steps, times) = procedural::drying_wood(64, 64, 11, args.seed);
+    let fitted = fit::fit(&steps, &times, 3, procedural::drying_wood_params())?;
+    fitted.material.save(&dir.join("material"))?;
+    let big = enlarge::enlarge(&fitted.material, (128, 128), None, None, &OptimizeParams::default(), args.seed, None)?;
+    let big_dir = dir.join("enlarged");
+    big.save(&big_dir)?;
+    let renders = dir.join("renders");
+    let argv: [&OsStr; 7] = [
+        "stbrdf".as_ref(),
+        "render".as_ref(),
+        big_dir.as_os_str(),
+        "--out".as_ref(),
+        renders.as_os_str(),
+        "--frames".as_ref(),
+        "6".as_ref(),
+    ];
+    let cmd = StbrdfCommand::try_parse_from(argv).map_err(|e| Error::Internal(format!("demo arguments: {e}")))?;
+    crate::stbrdf::run(cmd.args)
+}
+
+/// `patina stbrdf`'s arguments on their own, for the demo to parse.
+#[derive(clap::Parser)]
+struct StbrdfCommand {
+    #[command(flatten)]
+    args: crate::stbrdf::Args,
 }
 
 /// A procedural rusting-steel time-lapse (96 x 96, 40 frames) enlarged to

@@ -139,7 +139,7 @@ fn demo_makes_its_own_samples_and_measures_them() {
     let out = dir.join("demo");
     let r = patina(&["demo", "--out", s(&out)], None);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_eq!(listing(&out), vec!["exemplar.png", "manifest.json", "optimize.png", "quilt.png", "ttf", "weather"]);
+    assert_eq!(listing(&out), vec!["exemplar.png", "manifest.json", "optimize.png", "quilt.png", "stbrdf", "ttf", "weather"]);
     // The time-lapse: 40 frames enlarged, no more flicker than the input's.
     let t: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("ttf/manifest.json")).unwrap()).unwrap();
     assert_eq!(t["frames"].as_array().unwrap().len(), 40);
