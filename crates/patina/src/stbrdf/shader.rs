@@ -3,7 +3,7 @@
 //! parameter and coefficient (`{Name}-{i}.exr`, bound in that order), and
 //! Horner's rule per parameter. WGSL and GLSL.
 
-use super::material::Material;
+use super::material::{Material, Param};
 
 /// The identifier for a parameter name (lower case, letters and digits).
 fn ident(name: &str) -> String {
@@ -13,6 +13,37 @@ fn ident(name: &str) -> String {
     } else {
         s
     }
+}
+
+/// `struct Material {` and one field per parameter (`field(type, name)`).
+fn structure(material: &Material, ty: impl Fn(&Param) -> String, field: impl Fn(&str, &str) -> String) -> String {
+    let mut s = String::from("\nstruct Material {\n");
+    for p in &material.params {
+        s += &field(&ty(p), &ident(&p.name));
+        s.push('\n');
+    }
+    s
+}
+
+/// Horner's rule per parameter: `{out}.{name} = sample(name, d)`, then
+/// `{out}.{name} = {out}.{name} * t + sample(name, k)` down to k = 0.
+fn horner(material: &Material, out: &str, sample: impl Fn(&str, usize) -> String) -> String {
+    let m = material.degree + 1;
+    let mut s = String::new();
+    for p in &material.params {
+        let id = ident(&p.name);
+        let swizzle = match p.channels {
+            1 => ".r",
+            2 => ".rg",
+            3 => ".rgb",
+            _ => "",
+        };
+        s += &format!("    {out}.{id} = {}{swizzle};\n", sample(&id, m - 1));
+        for k in (0..m - 1).rev() {
+            s += &format!("    {out}.{id} = {out}.{id} * t + {}{swizzle};\n", sample(&id, k));
+        }
+    }
+    s
 }
 
 /// WGSL: bindings in group 0 (a sampler at 0, then the coefficient
@@ -31,25 +62,13 @@ pub fn wgsl(material: &Material) -> String {
             binding += 1;
         }
     }
-    s += "\nstruct Material {\n";
-    for p in &material.params {
-        let ty = if p.channels == 1 { "f32".to_string() } else { format!("vec{}<f32>", p.channels.min(4)) };
-        s += &format!("    {}: {ty},\n", ident(&p.name));
-    }
+    s += &structure(
+        material,
+        |p| if p.channels == 1 { "f32".into() } else { format!("vec{}<f32>", p.channels.min(4)) },
+        |ty, id| format!("    {id}: {ty},"),
+    );
     s += "}\n\nfn evaluate_material(uv: vec2<f32>, t: f32) -> Material {\n    var out: Material;\n";
-    for p in &material.params {
-        let id = ident(&p.name);
-        let swizzle = match p.channels {
-            1 => ".r",
-            2 => ".rg",
-            3 => ".rgb",
-            _ => "",
-        };
-        s += &format!("    out.{id} = textureSampleLevel({id}_{}, material_sampler, uv, 0.0){swizzle};\n", m - 1);
-        for k in (0..m - 1).rev() {
-            s += &format!("    out.{id} = out.{id} * t + textureSampleLevel({id}_{k}, material_sampler, uv, 0.0){swizzle};\n");
-        }
-    }
+    s += &horner(material, "out", |id, k| format!("textureSampleLevel({id}_{k}, material_sampler, uv, 0.0)"));
     s += "    return out;\n}\n";
     s
 }
@@ -67,25 +86,13 @@ pub fn glsl(material: &Material) -> String {
             s += &format!("uniform sampler2D {}_{k}; // {}-{k}.exr\n", ident(&p.name), p.name);
         }
     }
-    s += "\nstruct Material {\n";
-    for p in &material.params {
-        let ty = if p.channels == 1 { "float".to_string() } else { format!("vec{}", p.channels.min(4)) };
-        s += &format!("    {ty} {};\n", ident(&p.name));
-    }
+    s += &structure(
+        material,
+        |p| if p.channels == 1 { "float".into() } else { format!("vec{}", p.channels.min(4)) },
+        |ty, id| format!("    {ty} {id};"),
+    );
     s += "};\n\nMaterial evaluateMaterial(vec2 uv, float t) {\n    Material m;\n";
-    for p in &material.params {
-        let id = ident(&p.name);
-        let swizzle = match p.channels {
-            1 => ".r",
-            2 => ".rg",
-            3 => ".rgb",
-            _ => "",
-        };
-        s += &format!("    m.{id} = texture({id}_{}, uv){swizzle};\n", m - 1);
-        for k in (0..m - 1).rev() {
-            s += &format!("    m.{id} = m.{id} * t + texture({id}_{k}, uv){swizzle};\n");
-        }
-    }
+    s += &horner(material, "m", |id, k| format!("texture({id}_{k}, uv)"));
     s += "    return m;\n}\n";
     s
 }
