@@ -2,7 +2,7 @@
 //! Lambert diffuse plus a GGX microfacet specular lobe with Smith
 //! shadowing-masking and Schlick's Fresnel, under one directional light and
 //! a fixed view, on a flat plane (one texel per pixel) and on a sphere
-//! (the material wrapped by longitude and latitude).
+//! (the material wrapped by longitude and latitude, sampled bilinearly).
 //!
 //! Conventions: parameters are linear; alpha = roughness^2; Ks is the
 //! Fresnel reflectance at normal incidence (F0); a `Normal` parameter is a
@@ -65,9 +65,24 @@ pub fn shade(kd: [f32; 3], ks: [f32; 3], roughness: f32, n: [f32; 3], lighting: 
     out
 }
 
-/// The texel's parameters at (x, y) of an evaluated frame.
-fn texel(material: &Material, frame: &Image, x: usize, y: usize) -> ([f32; 3], [f32; 3], f32, [f32; 3]) {
-    let p = frame.pixel(x, y);
+/// Bilinear lookup of an evaluated frame at continuous texel coordinates
+/// (texel centres at +0.5; wraps horizontally, clamps vertically).
+fn bilinear(frame: &Image, fx: f32, fy: f32, out: &mut [f32]) {
+    let (w, h) = frame.size();
+    let (x, y) = (fx - 0.5, (fy - 0.5).clamp(0.0, (h - 1) as f32));
+    let (x0, y0) = (x.floor(), y.floor());
+    let (ax, ay) = (x - x0, y - y0);
+    let wrap = |v: f32| (v as isize).rem_euclid(w as isize) as usize;
+    let (xa, xb) = (wrap(x0), wrap(x0 + 1.0));
+    let (ya, yb) = (y0 as usize, (y0 as usize + 1).min(h - 1));
+    let (p00, p10, p01, p11) = (frame.pixel(xa, ya), frame.pixel(xb, ya), frame.pixel(xa, yb), frame.pixel(xb, yb));
+    for (c, o) in out.iter_mut().enumerate() {
+        *o = (1.0 - ay) * ((1.0 - ax) * p00[c] + ax * p10[c]) + ay * ((1.0 - ax) * p01[c] + ax * p11[c]);
+    }
+}
+
+/// A texel's parameters from its evaluated channels.
+fn texel(material: &Material, p: &[f32]) -> ([f32; 3], [f32; 3], f32, [f32; 3]) {
     let rgb = |name: &str, default: [f32; 3]| -> [f32; 3] {
         match material.param(name) {
             Some(r) if r.len() == 3 => [p[r.start], p[r.start + 1], p[r.start + 2]],
@@ -90,7 +105,7 @@ pub fn plane(material: &Material, t: f32, lighting: &Lighting) -> Image {
     let frame = material.evaluate(t);
     let (w, h) = material.size();
     Image::from_fn(w, h, 3, |x, y, px| {
-        let (kd, ks, r, n) = texel(material, &frame, x, y);
+        let (kd, ks, r, n) = texel(material, frame.pixel(x, y));
         let c = shade(kd, ks, r, n, lighting);
         for (o, v) in px.iter_mut().zip(c) {
             *o = linear_to_srgb(v.clamp(0.0, 1.0));
@@ -103,6 +118,7 @@ pub fn plane(material: &Material, t: f32, lighting: &Lighting) -> Image {
 pub fn sphere(material: &Material, t: f32, size: usize, lighting: &Lighting) -> Image {
     let frame = material.evaluate(t);
     let (w, h) = material.size();
+    let mut value = vec![0.0f32; frame.channels()];
     Image::from_fn(size, size, 3, |x, y, px| {
         let r = size as f32 / 2.0;
         let (u, v) = ((x as f32 + 0.5 - r) / r, (r - y as f32 - 0.5) / r);
@@ -116,9 +132,8 @@ pub fn sphere(material: &Material, t: f32, size: usize, lighting: &Lighting) -> 
         // latitude to its height.
         let lon = n_geo[0].atan2(n_geo[2]);
         let lat = n_geo[1].asin();
-        let tx = (((lon / PI + 0.5) * w as f32) as usize).min(w - 1);
-        let ty = (((0.5 - lat / PI) * h as f32) as usize).min(h - 1);
-        let (kd, ks, rough, n_tan) = texel(material, &frame, tx, ty);
+        bilinear(&frame, (lon / PI + 0.5) * w as f32, (0.5 - lat / PI) * h as f32, &mut value);
+        let (kd, ks, rough, n_tan) = texel(material, &value);
         // Tangent frame: T along longitude, B along latitude.
         let tangent = normalize([n_geo[2], 0.0, -n_geo[0]]);
         let bitangent = [
