@@ -96,6 +96,9 @@ pub struct TransferArgs {
     /// Weight of the equalised-luminance guides.
     #[arg(long, default_value_t = 2.0)]
     pub guide_weight: f32,
+    /// ratio: scale the change by target / material at t0 (eq. 16; wetting, dulling). offset: add the change unscaled (snow, moss, paint).
+    #[arg(long, default_value = "ratio", value_parser = ["ratio", "offset"])]
+    pub mode: String,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -289,14 +292,13 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
     let material = load_material(&args.material)?;
     let target = io::load(&args.target)?;
     refuse_overwrite(&material_outputs(&args.out, &material), &[&args.material, &args.target])?;
-    let params = OptimizeParams::default();
-    let out = with_bar("transfer", |report| {
-        transfer::transfer(&material, &target, args.t0, &params, args.guide_weight, args.seed, Some(report))
-    })?;
+    let mode = if args.mode == "offset" { transfer::Mode::Offset } else { transfer::Mode::Ratio };
+    let params = transfer::TransferParams { t0: args.t0, guide_weight: args.guide_weight, mode, ..Default::default() };
+    let out = with_bar("transfer", |report| transfer::transfer(&material, &target, &params, args.seed, Some(report)))?;
     let mut manifest = Manifest::new("stbrdf transfer", args.seed);
     manifest.timings_ms.insert("transfer".into(), clock.lap());
     out.save(&args.out)?;
-    manifest.params = json!({ "t0": args.t0, "guide_weight": args.guide_weight, "optimize": params });
+    manifest.params = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
     manifest.inputs = vec![args.material.clone(), args.target.clone()];
     manifest.write(&args.out.join("manifest.json"))?;
     eprintln!("patina stbrdf transfer: wrote {}", args.out.display());

@@ -20,6 +20,7 @@ use crate::error::{Error, Result};
 use crate::image::color::luminance;
 use crate::image::Image;
 use crate::synth::{OptimizeParams, Progress, Synthesis};
+use serde::{Deserialize, Serialize};
 
 /// Smallest |p_in(t0)| divided by.
 const RATIO_FLOOR: f32 = 1e-3;
@@ -44,18 +45,44 @@ pub fn equalize(img: &Image) -> Image {
     Image::from_data(img.width(), img.height(), 1, out).expect("same size")
 }
 
+/// How the target's albedo is tied to the material's at t0.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    /// Eq. 16: coefficients scaled by p_tex / p_in(t0) (clamped, see the
+    /// module docs). Right for changes proportional to the base colour
+    /// (wetting darkens, dust dulls).
+    #[default]
+    Ratio,
+    /// a_0 += p_tex - p_in(t0): the material's change over time is added
+    /// unscaled. Right for accumulation (snow, moss, paint) whose colour
+    /// does not depend on what lies beneath. Not in the paper.
+    Offset,
+}
+
+/// Parameters of [`transfer`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct TransferParams {
+    /// The time at which the result equals the target.
+    pub t0: f32,
+    /// Weight of the equalised-luminance guides.
+    pub guide_weight: f32,
+    pub mode: Mode,
+    pub optimize: OptimizeParams,
+}
+
+impl Default for TransferParams {
+    fn default() -> Self {
+        TransferParams { t0: 0.0, guide_weight: 2.0, mode: Mode::Ratio, optimize: OptimizeParams::default() }
+    }
+}
+
 /// The material's behaviour on `target` (an RGB texture, the output's size),
 /// matching it exactly at time `t0`. The material needs a 3-channel
 /// `Diffuse` parameter.
-pub fn transfer(
-    material: &Material,
-    target: &Image,
-    t0: f32,
-    params: &OptimizeParams,
-    guide_weight: f32,
-    seed: u64,
-    progress: Option<Progress>,
-) -> Result<Material> {
+pub fn transfer(material: &Material, target: &Image, params: &TransferParams, seed: u64, progress: Option<Progress>) -> Result<Material> {
+    let (t0, guide_weight) = (params.t0, params.guide_weight);
     if !(0.0..=1.0).contains(&t0) {
         return Err(Error::invalid(format!("t0 must be in [0, 1], got {t0}")));
     }
@@ -77,7 +104,7 @@ pub fn transfer(
     if let Some(p) = progress {
         problem = problem.progress(p);
     }
-    let mut coefficients = problem.optimize(params)?.image;
+    let mut coefficients = problem.optimize(&params.optimize)?.image;
     basis.apply(coefficients.data_mut(), false);
     let m = material.degree + 1;
     for y in 0..target.height() {
@@ -87,7 +114,10 @@ pub fn transfer(
             for (c, w) in kd.clone().zip(want) {
                 let a = &mut px[c * m..(c + 1) * m];
                 let at_t0 = evaluate(a, t0);
-                let s = if at_t0.abs() >= RATIO_FLOOR { (w / at_t0).clamp(1.0 / RATIO_LIMIT, RATIO_LIMIT) } else { 1.0 };
+                let s = match params.mode {
+                    Mode::Ratio if at_t0.abs() >= RATIO_FLOOR => (w / at_t0).clamp(1.0 / RATIO_LIMIT, RATIO_LIMIT),
+                    _ => 1.0,
+                };
                 a.iter_mut().for_each(|v| *v *= s);
                 a[0] += w - s * at_t0;
             }
@@ -108,7 +138,8 @@ mod tests {
         let wood = fit(&frames, &times, 3, drying_wood_params()).unwrap().material;
         let target = crate::samples::cobbles(64, 56, 2);
         let t0 = 1.0;
-        let out = transfer(&wood, &target, t0, &OptimizeParams::default(), 2.0, 3, None).unwrap();
+        let params = TransferParams { t0, ..TransferParams::default() };
+        let out = transfer(&wood, &target, &params, 3, None).unwrap();
         let at = out.evaluate(t0);
         let err = (0..56)
             .flat_map(|y| (0..64).map(move |x| (x, y)))
@@ -119,7 +150,11 @@ mod tests {
         let wet = out.evaluate(0.0);
         let mean = |img: &Image| img.data().chunks_exact(img.channels()).map(|p| p[0]).sum::<f32>() / (64.0 * 56.0);
         assert!(mean(&wet) < 0.9 * mean(&target), "wet {} vs target {}", mean(&wet), mean(&target));
-        assert!(transfer(&wood, &target, 1.5, &OptimizeParams::default(), 2.0, 3, None).is_err());
+        assert!(transfer(&wood, &target, &TransferParams { t0: 1.5, ..params.clone() }, 3, None).is_err());
+        // Offset mode is exact at t0 too, and adds the change unscaled.
+        let offset = transfer(&wood, &target, &TransferParams { mode: Mode::Offset, ..params }, 3, None).unwrap();
+        let at = offset.evaluate(t0);
+        assert!(at.data().chunks_exact(7).zip(target.data().chunks_exact(3)).all(|(a, b)| (0..3).all(|c| (a[c] - b[c]).abs() < 1e-5)));
     }
 
     #[test]
