@@ -48,6 +48,9 @@ pub struct FitArgs {
     /// Times of the steps, comma-separated in [0, 1] [default: evenly spaced]
     #[arg(long, value_delimiter = ',')]
     pub times: Option<Vec<f32>>,
+    /// The Specular maps are STAF-style (coupled with a Gaussian lobe of width Roughness): decouple them first (eq. 9).
+    #[arg(long)]
+    pub staf: bool,
 }
 
 #[derive(clap::Args)]
@@ -219,7 +222,10 @@ fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>, Vec<PathBuf>)> {
 
 fn run_fit(args: FitArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
-    let (steps, params, inputs) = load_steps(&args.input)?;
+    let (mut steps, params, inputs) = load_steps(&args.input)?;
+    if args.staf {
+        fit::decouple_frames(&mut steps, &params)?;
+    }
     let input_refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     let n = steps.len();
     let times = match &args.times {
@@ -241,7 +247,7 @@ fn run_fit(args: FitArgs) -> Result<()> {
         channel += p.channels;
     }
     manifest.metrics.insert("rms".into(), serde_json::Value::Object(rms));
-    manifest.params = json!({ "degree": args.degree, "times": times, "params": fitted.material.params.iter().map(|p| json!({"name": p.name, "channels": p.channels})).collect::<Vec<_>>() });
+    manifest.params = json!({ "degree": args.degree, "times": times, "staf_decoupled": args.staf, "params": fitted.material.params.iter().map(|p| json!({"name": p.name, "channels": p.channels})).collect::<Vec<_>>() });
     manifest.inputs = vec![args.input.clone()];
     manifest.write(&args.out.join("manifest.json"))?;
     eprintln!("patina stbrdf fit: {} time steps -> degree-{} material in {}", n, args.degree, args.out.display());

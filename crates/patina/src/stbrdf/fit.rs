@@ -8,6 +8,43 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 use rayon::prelude::*;
 
+/// Eq. (9): STAF-style specular albedo coupled with a Gaussian lobe of
+/// width sigma, decoupled so that it lies in [0, 1] whatever the roughness:
+/// Ks* = Ks sigma^2 pi (1 - exp(-1 / sigma^2)).
+pub fn decouple_specular(ks: f32, sigma: f32) -> f32 {
+    let s2 = (sigma * sigma).max(1e-8);
+    ks * s2 * std::f32::consts::PI * (1.0 - (-1.0 / s2).exp())
+}
+
+/// Apply [`decouple_specular`] to the `Specular` channels of every frame,
+/// with sigma from the `Roughness` channel (in place).
+pub fn decouple_frames(frames: &mut [Image], params: &[Param]) -> Result<()> {
+    let find = |name: &str| {
+        let mut start = 0;
+        for p in params {
+            if p.name.eq_ignore_ascii_case(name) {
+                return Some(start..start + p.channels);
+            }
+            start += p.channels;
+        }
+        None
+    };
+    let (ks, rough) = match (find("specular"), find("roughness")) {
+        (Some(k), Some(r)) => (k, r.start),
+        _ => return Err(Error::invalid("decoupling Ks (eq. 9) needs Specular and Roughness parameters")),
+    };
+    for f in frames.iter_mut() {
+        let c = f.channels();
+        for px in f.data_mut().chunks_exact_mut(c) {
+            let sigma = px[rough];
+            for v in &mut px[ks.clone()] {
+                *v = decouple_specular(*v, sigma);
+            }
+        }
+    }
+    Ok(())
+}
+
 /// A fitted material and its per-channel RMS error over the samples.
 #[derive(Clone, Debug)]
 pub struct Fitted {
@@ -62,4 +99,22 @@ pub fn fit(frames: &[Image], times: &[f32], degree: usize, params: Vec<Param>) -
         .collect();
     let rms = (0..c).map(|ch| (errors.iter().map(|e| e[ch]).sum::<f64>() / (w * h * n) as f64).sqrt() as f32).collect();
     Ok(Fitted { material: Material::new(degree, params, coefficients)?, rms })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decoupled_specular_follows_eq_9() {
+        // sigma = 1: Ks pi (1 - 1/e).
+        assert!((decouple_specular(0.5, 1.0) - 0.5 * std::f32::consts::PI * (1.0 - (-1.0f32).exp())).abs() < 1e-6);
+        // Narrow lobes: Ks* ~ Ks sigma^2 pi.
+        assert!((decouple_specular(1.0, 0.1) - 0.01 * std::f32::consts::PI).abs() < 1e-6);
+        let params = crate::stbrdf::procedural::drying_wood_params();
+        let mut frames = vec![Image::from_fn(2, 1, 7, |_, _, p| p.copy_from_slice(&[0.3, 0.3, 0.3, 0.5, 0.5, 0.5, 1.0]))];
+        decouple_frames(&mut frames, &params).unwrap();
+        assert!((frames[0].pixel(1, 0)[4] - decouple_specular(0.5, 1.0)).abs() < 1e-6);
+        assert_eq!(frames[0].pixel(1, 0)[0], 0.3, "diffuse untouched");
+    }
 }
