@@ -327,6 +327,15 @@ fn stbrdf_fits_enlarges_transfers_and_renders() {
     let big = dir.join("big");
     ok(&["stbrdf", "enlarge", s(&mat), "-o", s(&big), "--scale", "1.5", "--seed", "2"]);
     assert_eq!(patina::stbrdf::Material::load(&big).unwrap().size(), (60, 48));
+    // The same seed gives the same EXR bytes on 1 and 2 threads.
+    let (one, two) = (dir.join("one"), dir.join("two"));
+    for (out, threads) in [(&one, 1), (&two, 2)] {
+        let r = patina(&["stbrdf", "enlarge", s(&mat), "-o", s(out), "--scale", "1.5", "--seed", "2"], Some(threads));
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    }
+    for f in listing(&one).into_iter().filter(|f| f.ends_with(".exr")) {
+        assert_eq!(std::fs::read(one.join(&f)).unwrap(), std::fs::read(two.join(&f)).unwrap(), "{f}");
+    }
     let target = dir.join("target.png");
     save_png(&patina::samples::cobbles(50, 40, 1), &target, BitDepth::Eight).unwrap();
     let moved = dir.join("moved");

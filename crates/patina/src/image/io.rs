@@ -273,7 +273,7 @@ pub fn encode_png(img: &Image, depth: BitDepth, out: &mut Vec<u8>) -> Result<()>
 
 /// Save as OpenEXR with every channel as f32, named from the channel groups.
 pub fn save_exr(img: &Image, path: impl AsRef<Path>) -> Result<()> {
-    use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, SmallVec, WritableImage};
+    use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, LineOrder, SmallVec, WritableImage};
     let path = path.as_ref();
     write_atomic(path, |buf| {
         let names = exr_channel_names(img);
@@ -286,8 +286,10 @@ pub fn save_exr(img: &Image, path: impl AsRef<Path>) -> Result<()> {
                 AnyChannel::new(name.as_str(), FlatSamples::F32(values))
             })
             .collect();
-        let layer =
-            Layer::new((img.width(), img.height()), LayerAttributes::named("patina"), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
+        // Increasing line order: chunks compressed in parallel are still
+        // written in order, so the same image always gives the same bytes.
+        let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
+        let layer = Layer::new((img.width(), img.height()), LayerAttributes::named("patina"), encoding, AnyChannels::sort(list));
         exr::prelude::Image::from_layer(layer)
             .write()
             .to_buffered(Cursor::new(buf))
@@ -326,6 +328,27 @@ pub fn save(img: &Image, path: impl AsRef<Path>, depth: BitDepth) -> Result<()> 
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn exr_bytes_are_the_same_every_time() {
+        // Many chunks, compressed in parallel, must still land in one order.
+        let img = Image::from_fn(256, 512, 3, |x, y, p| {
+            for (c, v) in p.iter_mut().enumerate() {
+                *v = ((x * 7919 + y * 104729 + c * 31) % 1009) as f32 / 1009.0;
+            }
+        });
+        let dir = std::env::temp_dir().join(format!("patina-exr-bytes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let first = dir.join("a.exr");
+        save_exr(&img, &first).unwrap();
+        let want = std::fs::read(&first).unwrap();
+        for i in 0..6 {
+            let p = dir.join(format!("b{i}.exr"));
+            save_exr(&img, &p).unwrap();
+            assert_eq!(std::fs::read(&p).unwrap(), want, "write {i} differs");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
     use super::*;
 
     fn gradient(c: usize) -> Image {
