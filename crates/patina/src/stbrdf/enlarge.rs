@@ -48,7 +48,7 @@ pub fn metric(material: &Material, weights: Option<&[f32]>) -> Result<PatchMetri
 
 /// The weighted-SSD twin of [`metric`] for coefficients in the orthonormal
 /// basis ([`Orthonormal`]): the same costs, on the engine's fast path.
-pub(crate) fn orthonormal_metric(material: &Material, weights: Option<&[f32]>) -> Result<PatchMetric> {
+fn orthonormal_metric(material: &Material, weights: Option<&[f32]>) -> Result<PatchMetric> {
     metric(material, weights)?;
     let m = material.degree + 1;
     let w: Vec<f32> = material

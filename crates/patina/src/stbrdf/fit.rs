@@ -2,7 +2,7 @@
 //! al., section 4.1): per texel and channel, the least-squares polynomial,
 //! computed with the one pseudo-inverse all texels share.
 
-use super::material::{Material, Param};
+use super::material::{param_range, Material, Param};
 use super::poly::{evaluate, Fitter};
 use crate::error::{Error, Result};
 use crate::image::Image;
@@ -19,17 +19,7 @@ pub fn decouple_specular(ks: f32, sigma: f32) -> f32 {
 /// Apply [`decouple_specular`] to the `Specular` channels of every frame,
 /// with sigma from the `Roughness` channel (in place).
 pub fn decouple_frames(frames: &mut [Image], params: &[Param]) -> Result<()> {
-    let find = |name: &str| {
-        let mut start = 0;
-        for p in params {
-            if p.name.eq_ignore_ascii_case(name) {
-                return Some(start..start + p.channels);
-            }
-            start += p.channels;
-        }
-        None
-    };
-    let (ks, rough) = match (find("specular"), find("roughness")) {
+    let (ks, rough) = match (param_range(params, "specular"), param_range(params, "roughness")) {
         (Some(k), Some(r)) => (k, r.start),
         _ => return Err(Error::invalid("decoupling Ks (eq. 9) needs Specular and Roughness parameters")),
     };

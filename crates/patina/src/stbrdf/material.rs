@@ -63,10 +63,9 @@ impl Material {
                 coefficients.channels()
             )));
         }
-        let mut m = Material { degree, params, coefficients };
-        let groups = m.coefficient_groups();
-        m.coefficients.set_groups(groups)?;
-        Ok(m)
+        let mut coefficients = coefficients;
+        coefficients.set_groups(groups(&params, degree + 1))?;
+        Ok(Material { degree, params, coefficients })
     }
 
     /// Parameter channels (the channel count of an evaluated frame).
@@ -80,28 +79,7 @@ impl Material {
 
     /// The evaluated channels of parameter `name`.
     pub fn param(&self, name: &str) -> Option<Range<usize>> {
-        let mut start = 0;
-        for p in &self.params {
-            if p.name.eq_ignore_ascii_case(name) {
-                return Some(start..start + p.channels);
-            }
-            start += p.channels;
-        }
-        None
-    }
-
-    /// Channel groups of the coefficient image, one per parameter.
-    pub fn coefficient_groups(&self) -> Vec<ChannelGroup> {
-        let m = self.degree + 1;
-        let mut start = 0;
-        self.params
-            .iter()
-            .map(|p| {
-                let g = ChannelGroup { name: p.name.to_lowercase(), channels: start * m..(start + p.channels) * m };
-                start += p.channels;
-                g
-            })
-            .collect()
+        param_range(&self.params, name)
     }
 
     /// Every parameter at time t (Horner's rule per channel), named groups.
@@ -115,17 +93,7 @@ impl Material {
                 *o = evaluate(a, t);
             }
         });
-        let mut start = 0;
-        let groups = self
-            .params
-            .iter()
-            .map(|p| {
-                let g = ChannelGroup { name: p.name.to_lowercase(), channels: start..start + p.channels };
-                start += p.channels;
-                g
-            })
-            .collect();
-        out.set_groups(groups).expect("groups tile the channels");
+        out.set_groups(groups(&self.params, 1)).expect("groups tile the channels");
         out
     }
 
@@ -201,7 +169,7 @@ impl Material {
                 .zip(&planes)
                 .map(|(n, imgs)| {
                     let c = imgs[0].channels();
-                    let single = matches!(n.as_str(), "Roughness" | "Height") && imgs.iter().all(|i| equal_channels(i));
+                    let single = matches!(n.as_str(), "Roughness" | "Height") && imgs.iter().all(equal_channels);
                     Param { name: n.clone(), channels: if single { 1 } else { c } }
                 })
                 .collect(),
@@ -230,6 +198,33 @@ impl Material {
         });
         Material::new(degree, params, coefficients)
     }
+}
+
+/// The channels of parameter `name` (case-insensitive) in a frame holding
+/// `params` in order.
+pub fn param_range(params: &[Param], name: &str) -> Option<Range<usize>> {
+    let mut start = 0;
+    for p in params {
+        if p.name.eq_ignore_ascii_case(name) {
+            return Some(start..start + p.channels);
+        }
+        start += p.channels;
+    }
+    None
+}
+
+/// One named channel group per parameter, each `per` channels per
+/// parameter channel (1 for an evaluated frame, d + 1 for coefficients).
+fn groups(params: &[Param], per: usize) -> Vec<ChannelGroup> {
+    let mut start = 0;
+    params
+        .iter()
+        .map(|p| {
+            let g = ChannelGroup { name: p.name.to_lowercase(), channels: start * per..(start + p.channels) * per };
+            start += p.channels;
+            g
+        })
+        .collect()
 }
 
 fn equal_channels(img: &Image) -> bool {

@@ -13,6 +13,7 @@ use super::material::Material;
 use crate::image::color::linear_to_srgb;
 use crate::image::Image;
 use std::f32::consts::PI;
+use std::ops::Range;
 
 /// Light and view directions (towards the light / the viewer, unit length
 /// after normalisation) and the ambient share.
@@ -81,31 +82,47 @@ fn bilinear(frame: &Image, fx: f32, fy: f32, out: &mut [f32]) {
     }
 }
 
-/// A texel's parameters from its evaluated channels.
-fn texel(material: &Material, p: &[f32]) -> ([f32; 3], [f32; 3], f32, [f32; 3]) {
-    let rgb = |name: &str, default: [f32; 3]| -> [f32; 3] {
-        match material.param(name) {
-            Some(r) if r.len() == 3 => [p[r.start], p[r.start + 1], p[r.start + 2]],
-            Some(r) => [p[r.start]; 3],
-            None => default,
+/// Where the shading parameters sit in an evaluated frame, looked up once
+/// per render rather than per pixel.
+struct Layout {
+    kd: Option<Range<usize>>,
+    ks: Option<Range<usize>>,
+    roughness: Option<usize>,
+    normal: Option<usize>,
+}
+
+impl Layout {
+    fn of(material: &Material) -> Self {
+        Layout {
+            kd: material.param("diffuse"),
+            ks: material.param("specular"),
+            roughness: material.param("roughness").map(|r| r.start),
+            normal: material.param("normal").filter(|r| r.len() == 3).map(|r| r.start),
         }
-    };
-    let kd = rgb("diffuse", [0.5; 3]);
-    let ks = rgb("specular", [0.04; 3]);
-    let roughness = material.param("roughness").map_or(0.5, |r| p[r.start]);
-    let normal = match material.param("normal") {
-        Some(r) if r.len() == 3 => normalize([2.0 * p[r.start] - 1.0, 2.0 * p[r.start + 1] - 1.0, 2.0 * p[r.start + 2] - 1.0]),
-        _ => [0.0, 0.0, 1.0],
-    };
-    (kd, ks, roughness.clamp(0.0, 1.0), normal)
+    }
+
+    /// A texel's parameters from its evaluated channels.
+    fn texel(&self, p: &[f32]) -> ([f32; 3], [f32; 3], f32, [f32; 3]) {
+        let rgb = |r: &Option<Range<usize>>, default: [f32; 3]| -> [f32; 3] {
+            match r {
+                Some(r) if r.len() == 3 => [p[r.start], p[r.start + 1], p[r.start + 2]],
+                Some(r) => [p[r.start]; 3],
+                None => default,
+            }
+        };
+        let roughness = self.roughness.map_or(0.5, |c| p[c]);
+        let normal = self.normal.map_or([0.0, 0.0, 1.0], |c| normalize([2.0 * p[c] - 1.0, 2.0 * p[c + 1] - 1.0, 2.0 * p[c + 2] - 1.0]));
+        (rgb(&self.kd, [0.5; 3]), rgb(&self.ks, [0.04; 3]), roughness.clamp(0.0, 1.0), normal)
+    }
 }
 
 /// The material at time t on a flat plane, one texel per pixel (sRGB).
 pub fn plane(material: &Material, t: f32, lighting: &Lighting) -> Image {
     let frame = material.evaluate(t);
     let (w, h) = material.size();
+    let layout = Layout::of(material);
     Image::from_fn(w, h, 3, |x, y, px| {
-        let (kd, ks, r, n) = texel(material, frame.pixel(x, y));
+        let (kd, ks, r, n) = layout.texel(frame.pixel(x, y));
         let c = shade(kd, ks, r, n, lighting);
         for (o, v) in px.iter_mut().zip(c) {
             *o = linear_to_srgb(v.clamp(0.0, 1.0));
@@ -118,6 +135,7 @@ pub fn plane(material: &Material, t: f32, lighting: &Lighting) -> Image {
 pub fn sphere(material: &Material, t: f32, size: usize, lighting: &Lighting) -> Image {
     let frame = material.evaluate(t);
     let (w, h) = material.size();
+    let layout = Layout::of(material);
     let mut value = vec![0.0f32; frame.channels()];
     Image::from_fn(size, size, 3, |x, y, px| {
         let r = size as f32 / 2.0;
@@ -133,7 +151,7 @@ pub fn sphere(material: &Material, t: f32, size: usize, lighting: &Lighting) -> 
         let lon = n_geo[0].atan2(n_geo[2]);
         let lat = n_geo[1].asin();
         bilinear(&frame, (lon / PI + 0.5) * w as f32, (0.5 - lat / PI) * h as f32, &mut value);
-        let (kd, ks, rough, n_tan) = texel(material, &value);
+        let (kd, ks, rough, n_tan) = layout.texel(&value);
         // Tangent frame: T along longitude, B along latitude.
         let tangent = normalize([n_geo[2], 0.0, -n_geo[0]]);
         let bitangent = [

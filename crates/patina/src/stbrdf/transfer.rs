@@ -2,8 +2,8 @@
 //! behaviour onto a static target texture. The guide is the
 //! histogram-equalised luminance of the material's albedo at t0 (source)
 //! and of the target (target); the coefficients are synthesized under that
-//! guide (on the fast orthonormal-basis path of [`super::enlarge`]) and
-//! then scaled per texel (eq. 16), a_out = a_in p_tex / p_in(t0),
+//! guide (by [`super::enlarge::enlarge`], on its fast orthonormal-basis
+//! path) and then scaled per texel (eq. 16), a_out = a_in p_tex / p_in(t0),
 //! so that at t0 the result's albedo equals the target exactly.
 //!
 //! Guard (ours): the ratio s = p_tex / p_in(t0) is clamped to [1/4, 4] (and
@@ -13,13 +13,13 @@
 //! source at t0 (bare soil under later snow) multiplied the target by 15
 //! and blew it out to white.
 
-use super::enlarge::orthonormal_metric;
+use super::enlarge::enlarge;
 use super::material::Material;
-use super::poly::{evaluate, Orthonormal};
+use super::poly::evaluate;
 use crate::error::{Error, Result};
 use crate::image::color::luminance;
 use crate::image::Image;
-use crate::synth::{OptimizeParams, Progress, Synthesis};
+use crate::synth::{OptimizeParams, Progress};
 use serde::{Deserialize, Serialize};
 
 /// Smallest |p_in(t0)| divided by.
@@ -93,19 +93,9 @@ pub fn transfer(material: &Material, target: &Image, params: &TransferParams, se
     }
     let source_guide = equalize(&luminance(&material.evaluate(t0).select_channels(kd.clone())));
     let target_guide = equalize(&luminance(&target.select_channels(0..3)));
-    let basis = Orthonormal::new(material.degree);
-    let mut orthonormal = material.coefficients.clone();
-    basis.apply(orthonormal.data_mut(), true);
-    let mut problem = Synthesis::new(&orthonormal)
-        .size(target.width(), target.height())
-        .metric(orthonormal_metric(material, None)?)
-        .guides(&source_guide, &target_guide, guide_weight)
-        .seed(seed);
-    if let Some(p) = progress {
-        problem = problem.progress(p);
-    }
-    let mut coefficients = problem.optimize(&params.optimize)?.image;
-    basis.apply(coefficients.data_mut(), false);
+    let mut coefficients =
+        enlarge(material, target.size(), None, Some((&source_guide, &target_guide, guide_weight)), &params.optimize, seed, progress)?
+            .coefficients;
     let m = material.degree + 1;
     for y in 0..target.height() {
         for x in 0..target.width() {
