@@ -74,18 +74,6 @@ fn svd_table() {
     }
 }
 
-/// Every frame stacked as channels: the uncompressed comparison.
-fn stacked(frames: &[Image]) -> Image {
-    let (w, h, c, n) = (frames[0].width(), frames[0].height(), frames[0].channels(), frames.len());
-    Image::from_fn(w, h, c * n, |x, y, p| {
-        for ch in 0..c {
-            for (f, frame) in frames.iter().enumerate() {
-                p[ch * n + f] = frame.pixel(x, y)[ch];
-            }
-        }
-    })
-}
-
 fn search_table() {
     println!("\n| sequence | block search on all frames (ms) | on rank-15 coefficients (ms) | speed-up |");
     println!("|---|---:|---:|---:|");
@@ -94,7 +82,7 @@ fn search_table() {
         let n = frames.len();
         let basis = TemporalBasis::new(&frames).expect("svd");
         let coef = basis.coefficients(&frames, 15).expect("coefficients");
-        let full = stacked(&frames);
+        let full = patina::ttf::stack(&frames, &vec![1.0; n]).expect("stack");
         let time = |features: &Image| {
             median_ms(5, |i| {
                 let metric = PatchMetric::ssd(vec![1.0 / n as f32; features.channels()]);

@@ -107,7 +107,7 @@ pub fn synthesize(
     seed: u64,
     progress: Option<Progress>,
 ) -> Result<Ttf> {
-    let n = check_input(frames, (width, height), params, rate)?;
+    let (n, out_frames) = check_input(frames, (width, height), params, rate)?;
     let report = |done: u64| {
         if let Some(p) = progress {
             p(done, 100);
@@ -140,10 +140,6 @@ pub fn synthesize(
     let plan = quilted.plan;
     let warps: Vec<TimeWarp> =
         (0..plan.placements.len()).map(|i| TimeWarp::jittered(n, params.jitter, rng::derive(seed, &[2, i as u64]))).collect();
-    let out_frames = match rate {
-        Some(r) => r.output_frames(n)?,
-        None => n,
-    };
     let done = std::sync::atomic::AtomicU64::new(0);
     let mut out: Vec<Image> = (0..out_frames)
         .into_par_iter()
@@ -166,8 +162,8 @@ pub fn synthesize(
     Ok(Ttf { frames: out, plan, warps, compression })
 }
 
-/// Validate the inputs; the frame count.
-fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfParams, rate: Option<&RateMap>) -> Result<usize> {
+/// Validate the inputs; the input and output frame counts.
+fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfParams, rate: Option<&RateMap>) -> Result<(usize, usize)> {
     let first = frames.first().ok_or_else(|| Error::invalid("the sequence has no frames"))?;
     if frames.iter().any(|f| f.size() != first.size() || f.channels() != first.channels()) {
         return Err(Error::invalid("the frames of a sequence must share one size and channel count"));
@@ -202,7 +198,7 @@ fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfPa
     }
     let k = if params.rank == 0 || params.max_error.is_some() { n } else { params.rank.min(n) };
     crate::synth::problem::check_memory("time-lapse quilting", width, height, first.channels() * k)?;
-    Ok(n)
+    Ok((n, out_frames))
 }
 
 /// Per-frame weights that give every frame the same say in the block cost.
@@ -231,8 +227,8 @@ pub fn frame_balance(frames: &[Image]) -> Vec<f64> {
 
 /// All frames, scaled by `weights`, stacked as channels (channel c * n + f
 /// = frame f, channel c): the uncompressed description of each pixel's
-/// time column.
-fn stack(frames: &[Image], weights: &[f64]) -> Result<Image> {
+/// time column, which `rank = 0` quilts on.
+pub fn stack(frames: &[Image], weights: &[f64]) -> Result<Image> {
     let (w, h, c, n) = (frames[0].width(), frames[0].height(), frames[0].channels(), frames.len());
     let data = (0..w * h)
         .flat_map(|p| (0..c).flat_map(move |ch| frames.iter().zip(weights).map(move |(f, wt)| f.data()[p * c + ch] * *wt as f32)))

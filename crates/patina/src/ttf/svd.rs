@@ -105,8 +105,14 @@ impl TemporalBasis {
     /// channels (channel c * k + j = coefficient j of colour channel c).
     /// `k` is clamped to 1..=n.
     pub fn coefficients(&self, frames: &[Image], k: usize) -> Result<Image> {
-        if frames.len() != self.frames || frames[0].channels() != self.channels {
-            return Err(Error::invalid(format!("the basis has {} frames but the sequence {}", self.frames, frames.len())));
+        if frames.len() != self.frames || frames.first().map_or(0, Image::channels) != self.channels {
+            return Err(Error::invalid(format!(
+                "the basis was made from {} frames of {} channels but the sequence has {} of {}",
+                self.frames,
+                self.channels,
+                frames.len(),
+                frames.first().map_or(0, Image::channels)
+            )));
         }
         let k = k.clamp(1, self.frames);
         let n = self.frames;
