@@ -1,6 +1,6 @@
 //! `patina demo`: the whole pipeline on samples patina makes itself.
 
-use crate::output::{Manifest, Stopwatch};
+use crate::output::{mkdir, Manifest, Stopwatch};
 use crate::progress::with_bar;
 use clap::Parser;
 use patina::image::io::{save_png, BitDepth};
@@ -21,7 +21,7 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    std::fs::create_dir_all(&args.out).map_err(|source| Error::Write { path: args.out.clone(), source })?;
+    mkdir(&args.out)?;
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("demo", args.seed);
     let exemplar = samples::bricks(128, 128, args.seed);
@@ -80,7 +80,7 @@ fn stbrdf_demo(args: &Args) -> Result<()> {
     let big_dir = dir.join("enlarged");
     big.save(&big_dir)?;
     let renders = dir.join("renders");
-    let argv: [&OsStr; 7] = [
+    run_command(&[
         "stbrdf".as_ref(),
         "render".as_ref(),
         big_dir.as_os_str(),
@@ -88,16 +88,15 @@ fn stbrdf_demo(args: &Args) -> Result<()> {
         renders.as_os_str(),
         "--frames".as_ref(),
         "6".as_ref(),
-    ];
-    let cmd = StbrdfCommand::try_parse_from(argv).map_err(|e| Error::Internal(format!("demo arguments: {e}")))?;
-    crate::stbrdf::run(cmd.args)
+    ])
 }
 
-/// `patina stbrdf`'s arguments on their own, for the demo to parse.
-#[derive(clap::Parser)]
-struct StbrdfCommand {
-    #[command(flatten)]
-    args: crate::stbrdf::Args,
+/// Run a subcommand parsed exactly as from the command line (so the demo
+/// runs with the flags' defaults).
+fn run_command(argv: &[&OsStr]) -> Result<()> {
+    let cli = crate::Cli::try_parse_from(std::iter::once(OsStr::new("patina")).chain(argv.iter().copied()))
+        .map_err(|e| Error::Internal(format!("demo arguments: {e}")))?;
+    crate::dispatch(cli.command)
 }
 
 /// A procedural rusting-steel time-lapse (96 x 96, 40 frames) enlarged to
@@ -105,12 +104,12 @@ struct StbrdfCommand {
 fn ttf_demo(args: &Args) -> Result<()> {
     let dir = args.out.join("ttf");
     let input_dir = dir.join("input");
-    std::fs::create_dir_all(&input_dir).map_err(|source| Error::Write { path: input_dir.clone(), source })?;
+    mkdir(&input_dir)?;
     for (i, frame) in samples::rusting_timelapse(96, 96, 40, args.seed).iter().enumerate() {
         save_png(frame, input_dir.join(format!("{i:03}.png")), BitDepth::Eight)?;
     }
     let seed = args.seed.to_string();
-    let argv: [&OsStr; 11] = [
+    run_command(&[
         "ttf".as_ref(),
         input_dir.as_os_str(),
         "--out".as_ref(),
@@ -122,16 +121,7 @@ fn ttf_demo(args: &Args) -> Result<()> {
         "--compare".as_ref(),
         "--seed".as_ref(),
         seed.as_ref(),
-    ];
-    let ttf = TtfCommand::try_parse_from(argv).map_err(|e| Error::Internal(format!("demo arguments: {e}")))?;
-    crate::ttf::run(ttf.args)
-}
-
-/// `patina ttf`'s arguments on their own, for the demo to parse.
-#[derive(clap::Parser)]
-struct TtfCommand {
-    #[command(flatten)]
-    args: crate::ttf::Args,
+    ])
 }
 
 /// The flagship: glazed tiles with rust stains, aged back to intact and
@@ -140,20 +130,9 @@ fn weather_demo(args: &Args) -> Result<()> {
     let dir = args.out.join("weather");
     let clean = samples::tiles(192, 192, args.seed);
     let (input, _) = samples::weather(&clean, samples::Weathering::Rust, 0.1, args.seed ^ 0x5eed);
-    std::fs::create_dir_all(&dir).map_err(|source| Error::Write { path: dir.clone(), source })?;
+    mkdir(&dir)?;
     let input_path = dir.join("input.png");
     save_png(&input, &input_path, BitDepth::Eight)?;
-    // Parsed like a command line, so the demo runs with the flags' defaults.
     let seed = args.seed.to_string();
-    let argv: [&OsStr; 6] =
-        ["weather".as_ref(), input_path.as_os_str(), "--out".as_ref(), dir.as_os_str(), "--seed".as_ref(), seed.as_ref()];
-    let weather = WeatherCommand::try_parse_from(argv).map_err(|e| Error::Internal(format!("demo arguments: {e}")))?;
-    crate::weather::run(weather.args)
-}
-
-/// `patina weather`'s arguments on their own, for the demo to parse.
-#[derive(clap::Parser)]
-struct WeatherCommand {
-    #[command(flatten)]
-    args: crate::weather::Args,
+    run_command(&["weather".as_ref(), input_path.as_os_str(), "--out".as_ref(), dir.as_os_str(), "--seed".as_ref(), seed.as_ref()])
 }

@@ -57,7 +57,18 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let result = match cli.command {
+    match dispatch(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("patina: {e}");
+            ExitCode::from(if e.is_usage() { 2 } else { 1 })
+        }
+    }
+}
+
+/// Run one subcommand.
+fn dispatch(command: Command) -> patina::Result<()> {
+    match command {
         Command::Synth(a) => synth::run(a),
         Command::Weather(a) => weather::run(a),
         Command::AgeMap(a) => weather::run_age_map(a),
@@ -66,12 +77,5 @@ fn main() -> ExitCode {
         Command::Ttf(a) => ttf::run(a),
         Command::Stbrdf(a) => stbrdf::run(a),
         Command::Demo(a) => demo::run(a),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("patina: {e}");
-            ExitCode::from(if e.is_usage() { 2 } else { 1 })
-        }
     }
 }

@@ -145,10 +145,6 @@ fn material_outputs(dir: &Path, m: &Material) -> Vec<PathBuf> {
     v
 }
 
-fn load_material(dir: &Path) -> Result<Material> {
-    Material::load(dir)
-}
-
 /// The parameter a file stem names, with its canonical spelling.
 fn param_name(stem: &str) -> String {
     let lower = stem.to_lowercase();
@@ -256,7 +252,7 @@ fn run_fit(args: FitArgs) -> Result<()> {
 
 fn run_enlarge(args: EnlargeArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
-    let material = load_material(&args.material)?;
+    let material = Material::load(&args.material)?;
     let (w, h) = material.size();
     let size = match args.size {
         Some(s) => s,
@@ -295,7 +291,7 @@ fn run_enlarge(args: EnlargeArgs) -> Result<()> {
 
 fn run_transfer(args: TransferArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
-    let material = load_material(&args.material)?;
+    let material = Material::load(&args.material)?;
     let target = io::load(&args.target)?;
     refuse_overwrite(&material_outputs(&args.out, &material), &[&args.material, &args.target])?;
     let mode = if args.mode == "offset" { transfer::Mode::Offset } else { transfer::Mode::Ratio };
@@ -313,7 +309,7 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
 
 fn run_render(args: RenderArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
-    let material = load_material(&args.material)?;
+    let material = Material::load(&args.material)?;
     let times: Vec<f32> = match &args.times {
         Some(t) if t.is_empty() || t.iter().any(|v| !(0.0..=1.0).contains(v)) => {
             return Err(Error::invalid("--times must list times in [0, 1]"))
