@@ -16,6 +16,7 @@ pub mod metrics;
 pub mod rng;
 pub mod samples;
 pub mod stbrdf;
+pub mod stone;
 pub mod synth;
 pub mod ttf;
 pub mod weather;

@@ -175,3 +175,69 @@ mod tests {
         assert!(own > 0.0 && own < 0.2, "{own}");
     }
 }
+
+/// Radially averaged power spectrum of channel 0 (mean removed): entry k is
+/// the mean |FFT|^2 / (w h) over frequencies whose radius, in cycles per
+/// pixel, lies in [k, k + 1) / min(w, h); k = 1 .. min(w, h) / 2 (entry 0
+/// is unused and 0).
+pub fn radial_power_spectrum(img: &Image) -> Vec<f64> {
+    use rustfft::{num_complex::Complex, FftPlanner};
+    let (w, h) = img.size();
+    let mean = (0..w * h).map(|i| img.at(i % w, i / w, 0) as f64).sum::<f64>() / (w * h) as f64;
+    let mut data: Vec<Complex<f64>> = (0..w * h).map(|i| Complex::new(img.at(i % w, i / w, 0) as f64 - mean, 0.0)).collect();
+    let mut planner = FftPlanner::new();
+    let (row, col) = (planner.plan_fft_forward(w), planner.plan_fft_forward(h));
+    data.chunks_mut(w).for_each(|r| row.process(r));
+    let mut column = vec![Complex::new(0.0, 0.0); h];
+    for x in 0..w {
+        (0..h).for_each(|y| column[y] = data[y * w + x]);
+        col.process(&mut column);
+        (0..h).for_each(|y| data[y * w + x] = column[y]);
+    }
+    let bins = w.min(h) / 2;
+    let (mut sum, mut count) = (vec![0f64; bins + 1], vec![0usize; bins + 1]);
+    let side = w.min(h) as f64;
+    for y in 0..h {
+        let fy = (if y <= h / 2 { y as f64 } else { y as f64 - h as f64 }) / h as f64;
+        for x in 0..w {
+            let fx = (if x <= w / 2 { x as f64 } else { x as f64 - w as f64 }) / w as f64;
+            let k = ((fx * fx + fy * fy).sqrt() * side) as usize;
+            if (1..=bins).contains(&k) {
+                sum[k] += data[y * w + x].norm_sqr() / (w * h) as f64;
+                count[k] += 1;
+            }
+        }
+    }
+    sum.iter().zip(&count).map(|(s, &n)| if n > 0 { s / n as f64 } else { 0.0 }).collect()
+}
+
+/// The least-squares slope of log power against log frequency over the
+/// bins `lo..=hi` of a [`radial_power_spectrum`] (-2 for a 1/f^2 spectrum).
+pub fn spectral_slope(spectrum: &[f64], lo: usize, hi: usize) -> f64 {
+    let pts: Vec<(f64, f64)> = (lo..=hi.min(spectrum.len() - 1)).filter(|&k| spectrum[k] > 0.0).map(|k| ((k as f64).ln(), spectrum[k].ln())).collect();
+    let n = pts.len() as f64;
+    let (mx, my) = (pts.iter().map(|p| p.0).sum::<f64>() / n, pts.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    sxy / sxx
+}
+
+/// Two-sample Kolmogorov-Smirnov distance: the largest gap between the
+/// empirical distribution functions of `a` and `b`.
+pub fn ks_distance(a: &[f32], b: &[f32]) -> f32 {
+    let (mut a, mut b) = (a.to_vec(), b.to_vec());
+    a.sort_unstable_by(f32::total_cmp);
+    b.sort_unstable_by(f32::total_cmp);
+    let (mut i, mut j, mut worst) = (0, 0, 0f32);
+    while i < a.len() && j < b.len() {
+        let v = a[i].min(b[j]);
+        while i < a.len() && a[i] <= v {
+            i += 1;
+        }
+        while j < b.len() && b[j] <= v {
+            j += 1;
+        }
+        worst = worst.max((i as f32 / a.len() as f32 - j as f32 / b.len() as f32).abs());
+    }
+    worst
+}

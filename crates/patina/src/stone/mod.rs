@@ -1,0 +1,248 @@
+//! Stone weathering in a photograph (Xue, Dorsey, Rushmeier, EGSR 2011).
+//!
+//! From one photo and an object mask: the weathering tendency d(x)
+//! ([`tendency`]), patches from a graph segmentation of it ([`segment`]),
+//! smoothing by borrowing calmer patches' Laplacians and solving Poisson
+//! problems ([`update`]), fractal roughening learned from a rough-stone
+//! sample ([`roughen`]), silhouette erosion ([`erosion`]) and a final
+//! luminance histogram match to the original. Work is in linear light
+//! (gamma 2.2, as the paper), frames are returned in sRGB-like gamma 2.2.
+//!
+//! ```no_run
+//! # use patina::{image::io, stone::{self, StoneParams}};
+//! let photo = io::load("statue.jpg".as_ref()).unwrap();
+//! let prepared = stone::prepare(&photo, None, None, &StoneParams::default()).unwrap();
+//! let frames = stone::sequence(&prepared, &[0.0, 50.0, 100.0], 7, None).unwrap();
+//! ```
+
+pub mod erosion;
+pub mod roughen;
+pub mod segment;
+pub mod tendency;
+pub mod update;
+
+use crate::error::{Error, Result};
+use crate::image::color::luminance;
+use crate::image::{Image, Mask};
+use crate::synth::Progress;
+use erosion::Erosion;
+use roughen::Fractal;
+use segment::{Patch, SegmentParams};
+use serde::Serialize;
+use update::{MatchParams, SearchMaps};
+
+/// Gamma used to linearise LDR input (the paper's 2.2).
+pub const GAMMA: f32 = 2.2;
+
+/// Every parameter of the method, with the paper's defaults.
+#[derive(Clone, Debug, Serialize)]
+pub struct StoneParams {
+    /// eta: d = (v / v*)^eta.
+    pub eta: f32,
+    /// m: tendency window radius r = sqrt(N(I)) / m.
+    pub m: f32,
+    /// FH scale K.
+    pub seg_k: f32,
+    /// n: minimum patch size Omega = N(I) / n.
+    pub n: f32,
+    /// Patches over this many Omega are bisected.
+    pub max_patch: f32,
+    /// w_d of eq. (1).
+    pub wd: f32,
+    /// k of eq. (2): w = exp(-k mean d t).
+    pub k: f32,
+    /// nu: roughening weight beta = d^nu.
+    pub nu: f32,
+    /// Roughen at all.
+    pub roughen: bool,
+    /// Erode the silhouette (needs a mask or alpha with background).
+    pub erosion: bool,
+    /// epsilon: erosion iterations = epsilon sqrt(N(I)) t.
+    pub erosion_speed: f32,
+    /// alpha: colour share a removed pixel bleeds into its inner neighbours.
+    pub bleed: f32,
+}
+
+impl Default for StoneParams {
+    fn default() -> Self {
+        StoneParams {
+            eta: 0.6,
+            m: 60.0,
+            seg_k: 100.0,
+            n: 3200.0,
+            max_patch: 4.0,
+            wd: 1.0,
+            k: 0.01,
+            nu: 3.0,
+            roughen: true,
+            erosion: true,
+            erosion_speed: 0.0002,
+            bleed: 0.2,
+        }
+    }
+}
+
+/// Everything that does not depend on t, computed once per photo.
+pub struct Prepared {
+    /// The photo in linear light, RGB.
+    pub linear: Image,
+    /// The photo as given (sRGB), RGB: background pixels are copied from it.
+    pub original: Image,
+    pub mask: Mask,
+    /// Whether the mask came from the user (or alpha); erosion needs one.
+    pub masked: bool,
+    pub tendency: Image,
+    pub patches: Vec<Patch>,
+    /// Each patch's best-match offset c1 - c0 under eq. (1).
+    pub offsets: Vec<(isize, isize)>,
+    pub fractal: Fractal,
+    pub params: StoneParams,
+}
+
+/// One output time.
+pub struct Frame {
+    pub t: f32,
+    /// RGB, gamma 2.2 (sRGB-like), ready to save.
+    pub image: Image,
+    /// The object still standing at t.
+    pub mask: Mask,
+}
+
+/// Side of the built-in rough-stone sample the default fractal is learned from.
+const SAMPLE_SIDE: usize = 256;
+
+/// Check the inputs and compute tendency, patches, matches and fractal.
+/// `photo` is gamma-encoded RGB (a gray photo is used as RGB; a 4th channel
+/// is alpha and, without `mask`, gives the object as alpha > 0.5).
+pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>, params: &StoneParams) -> Result<Prepared> {
+    let (w, h) = photo.size();
+    if w < 16 || h < 16 {
+        return Err(Error::invalid(format!("the photo is {w}x{h}; stone needs at least 16x16 pixels")));
+    }
+    check_params(params)?;
+    let rgb = Image::from_fn(w, h, 3, |x, y, p| {
+        let px = photo.pixel(x, y);
+        p.copy_from_slice(&if px.len() >= 3 { [px[0], px[1], px[2]] } else { [px[0]; 3] })
+    });
+    let (mask, masked) = match mask {
+        Some(m) if m.size() != (w, h) => {
+            return Err(Error::invalid(format!("the mask is {}x{} but the photo is {w}x{h}", m.width(), m.height())));
+        }
+        Some(m) => (m.clone(), true),
+        None if photo.channels() == 4 || photo.channels() == 2 => {
+            let a = photo.channels() - 1;
+            (Mask::from_fn(w, h, |x, y| photo.at(x, y, a) > 0.5), true)
+        }
+        None => (Mask::filled(w, h, true), false),
+    };
+    if mask.count() < 64 {
+        return Err(Error::invalid(format!("the mask covers {} pixels; stone needs an object of at least 64", mask.count())));
+    }
+    let linear = rgb.map(|v| v.max(0.0).powf(GAMMA));
+    let tendency = tendency::tendency(&linear, &mask, params.eta, params.m);
+    let seg = SegmentParams { k: params.seg_k, n: params.n, max_factor: params.max_patch };
+    let patches = segment::segment(&tendency, &mask, &seg);
+    let intensity = luminance(&linear);
+    let maps = SearchMaps { intensity: &intensity, tendency: &tendency, mask: &mask };
+    let offsets = update::best_offsets(&patches, &maps, &MatchParams { wd: params.wd, ..Default::default() });
+    let fractal = match rough_sample {
+        Some(s) => Fractal::learn(&luminance(&s.map(|v| v.max(0.0).powf(GAMMA)))),
+        None => Fractal::learn(&crate::samples::rough_stone(SAMPLE_SIDE, SAMPLE_SIDE, 1).map(|v| v.powf(GAMMA))),
+    };
+    Ok(Prepared { linear, original: rgb, mask, masked, tendency, patches, offsets, fractal, params: params.clone() })
+}
+
+fn check_params(p: &StoneParams) -> Result<()> {
+    let positive = [("eta", p.eta), ("m", p.m), ("K", p.seg_k), ("n", p.n), ("max patch", p.max_patch)];
+    for (name, v) in positive {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(Error::invalid(format!("{name} must be a positive number, got {v}")));
+        }
+    }
+    let non_negative = [("wd", p.wd), ("k", p.k), ("nu", p.nu), ("erosion speed", p.erosion_speed)];
+    for (name, v) in non_negative {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(Error::invalid(format!("{name} must be a number >= 0, got {v}")));
+        }
+    }
+    if !(0.0..=1.0).contains(&p.bleed) {
+        return Err(Error::invalid(format!("bleed must be in [0, 1], got {}", p.bleed)));
+    }
+    Ok(())
+}
+
+/// The weathered photo at each of `times` (ascending, >= 0; the paper uses
+/// 0 to 100). Erosion carries over from one time to the next, so the
+/// object only shrinks.
+pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Progress>) -> Result<Vec<Frame>> {
+    if times.is_empty() || times.iter().any(|t| !t.is_finite() || *t < 0.0) || times.windows(2).any(|p| p[1] < p[0]) {
+        return Err(Error::invalid("times must be finite, >= 0 and ascending"));
+    }
+    let p = &prep.params;
+    let (w, h) = prep.linear.size();
+    let fractal = prep.fractal.render(w, h, seed);
+    let erode = p.erosion && prep.masked && prep.mask.count() < w * h;
+    let mut erosion = Erosion::new(&prep.linear, &prep.mask, p.bleed, seed);
+    let object_pixels = prep.mask.count();
+    let mut done = 0;
+    let mut frames = Vec::with_capacity(times.len());
+    for (i, &t) in times.iter().enumerate() {
+        let smoothed = update::update(&prep.linear, &prep.tendency, &prep.mask, &prep.patches, &prep.offsets, p.k, t);
+        let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
+        let mut weathered = match_luminance(&rough, &prep.linear, &prep.mask);
+        if erode {
+            for _ in done..erosion::iterations(object_pixels, p.erosion_speed, t) {
+                erosion.step();
+                done += 1;
+            }
+            // Bleeding is tracked on the original colours; carry its change over.
+            for (idx, v) in weathered.data_mut().iter_mut().enumerate() {
+                *v += erosion.colours.data()[idx] - prep.linear.data()[idx];
+            }
+        }
+        let object = if erode { erosion.object.clone() } else { prep.mask.clone() };
+        let mut image = prep.original.clone();
+        for y in 0..h {
+            for x in 0..w {
+                if object.get(x, y) {
+                    let px = weathered.pixel(x, y);
+                    image.pixel_mut(x, y).iter_mut().zip(px).for_each(|(o, v)| *o = v.clamp(0.0, 1.0).powf(1.0 / GAMMA));
+                }
+            }
+        }
+        if erode {
+            let eroded = Mask::from_fn(w, h, |x, y| prep.mask.get(x, y) && !object.get(x, y));
+            let background = Mask::from_fn(w, h, |x, y| !prep.mask.get(x, y));
+            image = erosion::fill_background(&image, &background, &eroded, crate::rng::derive(seed, &[i as u64]))?;
+        }
+        frames.push(Frame { t, image, mask: object });
+        if let Some(report) = progress {
+            report(i as u64 + 1, times.len() as u64);
+        }
+    }
+    Ok(frames)
+}
+
+/// Section 6's contrast step: map the object's luminance so its histogram
+/// equals the original's (rank to quantile), and scale the colour channels
+/// by the same ratio. Outside the mask the image is unchanged.
+pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask) -> Image {
+    let w = image.width();
+    let (lum, reference_lum) = (luminance(image), luminance(reference));
+    let inside: Vec<usize> = (0..mask.bits().len()).filter(|&i| mask.bits()[i]).collect();
+    let mut order = inside.clone();
+    order.sort_unstable_by(|&a, &b| lum.data()[a].total_cmp(&lum.data()[b]).then(a.cmp(&b)));
+    let mut target: Vec<f32> = inside.iter().map(|&i| reference_lum.data()[i]).collect();
+    target.sort_unstable_by(f32::total_cmp);
+    let mut out = image.clone();
+    for (rank, &i) in order.iter().enumerate() {
+        let (old, new) = (lum.data()[i], target[rank]);
+        let px = out.pixel_mut(i % w, i / w);
+        if old > 1e-5 {
+            px.iter_mut().for_each(|v| *v *= new / old);
+        } else {
+            px.iter_mut().for_each(|v| *v += new - old);
+        }
+    }
+    out
+}
