@@ -5,6 +5,7 @@ mod demo;
 mod output;
 mod progress;
 mod stbrdf;
+mod stone;
 mod synth;
 mod ttf;
 mod weather;
@@ -37,6 +38,8 @@ enum Command {
     Ttf(ttf::Args),
     /// Spatio-temporal BRDF materials (Meister et al. 2021): fit, enlarge, transfer, render.
     Stbrdf(stbrdf::Args),
+    /// Weather the stone in a photo (Xue et al. 2011): carvings wear smooth, rough spots grow, the silhouette erodes.
+    Stone(stone::Args),
     /// Run patina on built-in procedural samples, writing into ./patina-demo/.
     Demo(demo::Args),
 }
@@ -71,6 +74,7 @@ fn dispatch(command: Command) -> patina::Result<()> {
     match command {
         Command::Synth(a) => synth::run(a),
         Command::Weather(a) => weather::run(a),
+        Command::Stone(a) => stone::run(a),
         Command::AgeMap(a) => weather::run_age_map(a),
         Command::Intact(a) => weather::run_intact(a),
         Command::WeatherTransfer(a) => weather::run_transfer(a),

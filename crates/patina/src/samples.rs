@@ -327,14 +327,15 @@ pub fn by_name(name: &str, width: usize, height: usize, seed: u64) -> Option<Ima
 }
 
 /// Rough weathered stone (grey, 1 channel luminance in about [0.2, 0.8]):
-/// fractal relief (7 octaves from 48 px), pixel grain and pitting. The
-/// default sample `stone` learns its roughening fractal from.
+/// fine fractal relief (4 octaves from 12 px), pixel grain and pitting:
+/// the crumbly, pocked surface of weathered sandstone. The default sample
+/// `stone` learns its roughening fractal from.
 pub fn rough_stone(width: usize, height: usize, seed: u64) -> Image {
     Image::from_fn(width, height, 1, |x, y, p| {
         let (fx, fy) = (x as f32, y as f32);
-        let relief = fractal_noise(seed, fx, fy, 48.0, 7) - 0.5;
+        let relief = fractal_noise(seed, fx, fy, 12.0, 4) - 0.5;
         let grain = lattice(seed ^ 0x51, x as i64, y as i64) - 0.5;
         let pit = (value_noise(seed ^ 0x77, fx / 3.0, fy / 3.0) - 0.8).max(0.0);
-        p[0] = (0.5 + 0.6 * relief + 0.12 * grain - 1.2 * pit).clamp(0.0, 1.0);
+        p[0] = (0.55 + 0.2 * relief + 0.15 * grain - 1.5 * pit).clamp(0.0, 1.0);
     })
 }

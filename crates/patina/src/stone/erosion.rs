@@ -111,7 +111,10 @@ pub fn iterations(object_pixels: usize, epsilon: f32, t: f32) -> usize {
 
 /// Fill the pixels of `eroded` (object pixels that became background) from
 /// the background around them with the engine's patch-based hole filling,
-/// on a crop around the hole. Every other pixel of `image` is kept.
+/// on a crop around the hole, at one pyramid level (the holes are a few
+/// pixels wide, and coarser levels of a thin background strip hold no
+/// whole patch). When the background holds no whole patch at all, a
+/// diffusion fill is used instead. Every other pixel of `image` is kept.
 pub fn fill_background(image: &Image, background: &Mask, eroded: &Mask, seed: u64) -> Result<Image> {
     let (w, h) = image.size();
     let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
@@ -128,8 +131,11 @@ pub fn fill_background(image: &Image, background: &Mask, eroded: &Mask, seed: u6
     let crop = image.crop(cx, cy, cw, ch)?;
     let hole = Mask::from_fn(cw, ch, |x, y| eroded.get(cx + x, cy + y));
     let allowed = Mask::from_fn(cw, ch, |x, y| background.get(cx + x, cy + y));
-    let op = OptimizeParams { patch: 7, ..OptimizeParams::default() };
-    let filled = Synthesis::new(&crop).fill(&crop, &hole).source_mask(&allowed).seed(seed).optimize(&op)?.image;
+    let op = OptimizeParams { patch: 7, levels: Some(1), ..OptimizeParams::default() };
+    let filled = match Synthesis::new(&crop).fill(&crop, &hole).source_mask(&allowed).seed(seed).optimize(&op) {
+        Ok(s) => s.image,
+        Err(_) => diffuse(&crop, &hole),
+    };
     let mut out = image.clone();
     for y in 0..ch {
         for x in 0..cw {
@@ -139,4 +145,33 @@ pub fn fill_background(image: &Image, background: &Mask, eroded: &Mask, seed: u6
         }
     }
     Ok(out)
+}
+
+/// Harmonic fill: hole pixels start at the mean of the known pixels and
+/// relax to the average of their 4-neighbours (Gauss-Seidel sweeps in
+/// row-major order, deterministic).
+fn diffuse(image: &Image, hole: &Mask) -> Image {
+    let (w, h) = image.size();
+    let c = image.channels();
+    let mut out = image.clone();
+    let known = (0..w * h).filter(|&i| !hole.bits()[i]).count().max(1) as f32;
+    for ch in 0..c {
+        let mean = (0..w * h).filter(|&i| !hole.bits()[i]).map(|i| image.at(i % w, i / w, ch)).sum::<f32>() / known;
+        (0..w * h).filter(|&i| hole.bits()[i]).for_each(|i| out.pixel_mut(i % w, i / w)[ch] = mean);
+    }
+    for _ in 0..w.max(h) {
+        for y in 0..h {
+            for x in 0..w {
+                if !hole.get(x, y) {
+                    continue;
+                }
+                let nb: Vec<(usize, usize)> = [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)].into_iter().filter(|&(a, b)| a < w && b < h).collect();
+                for ch in 0..c {
+                    let v = nb.iter().map(|&(a, b)| out.at(a, b, ch)).sum::<f32>() / nb.len() as f32;
+                    out.pixel_mut(x, y)[ch] = v;
+                }
+            }
+        }
+    }
+    out
 }

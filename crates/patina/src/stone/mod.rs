@@ -145,10 +145,15 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
     let intensity = luminance(&linear);
     let maps = SearchMaps { intensity: &intensity, tendency: &tendency, mask: &mask };
     let offsets = update::best_offsets(&patches, &maps, &MatchParams { wd: params.wd, ..Default::default() });
-    let fractal = match rough_sample {
-        Some(s) => Fractal::learn(&luminance(&s.map(|v| v.max(0.0).powf(GAMMA)))),
-        None => Fractal::learn(&crate::samples::rough_stone(SAMPLE_SIDE, SAMPLE_SIDE, 1).map(|v| v.powf(GAMMA))),
+    let sample = match rough_sample {
+        Some(s) => luminance(&s.map(|v| v.max(0.0).powf(GAMMA))),
+        None => crate::samples::rough_stone(SAMPLE_SIDE, SAMPLE_SIDE, 1).map(|v| v.powf(GAMMA)),
     };
+    let mean = sample.data().iter().sum::<f32>() / sample.data().len() as f32;
+    if sample.width() < 16 || sample.height() < 16 || mean <= 1e-4 {
+        return Err(Error::invalid(format!("the rough-stone sample must be at least 16x16 and not black (got {}x{})", sample.width(), sample.height())));
+    }
+    let fractal = Fractal::learn(&sample.map(|v| v / mean));
     Ok(Prepared { linear, original: rgb, mask, masked, tendency, patches, offsets, fractal, params: params.clone() })
 }
 

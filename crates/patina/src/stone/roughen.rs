@@ -136,7 +136,9 @@ fn nnls(a: &DMatrix<f64>, b: &DVector<f64>) -> Vec<f64> {
     x.iter().copied().collect()
 }
 
-/// Add the fractal to the luminance: L' = L + lambda F with
+/// Add the fractal to the luminance, relative to it: L' = L (1 + lambda F)
+/// (the fractal is learned from the sample's luminance over its mean, so it
+/// carries the sample's relative roughness whatever the photo's exposure) with
 /// lambda = beta (1 - exp(-k t)), beta = d^nu (section 4.2: roughness
 /// appears where the tendency is high and grows with time at the same rate
 /// k as the smoothing), then rescale L' linearly to the original object
@@ -152,7 +154,7 @@ pub fn roughen(linear: &Image, tendency: &Image, fractal: &Image, nu: f32, k: f3
     }
     let mut new_l = lum.data().to_vec();
     for &i in &inside {
-        new_l[i] += tendency.data()[i].powf(nu) * growth * fractal.data()[i];
+        new_l[i] *= 1.0 + tendency.data()[i].powf(nu) * growth * fractal.data()[i];
     }
     let range = |v: &dyn Fn(usize) -> f32| inside.iter().fold((f32::MAX, f32::MIN), |(lo, hi), &i| (lo.min(v(i)), hi.max(v(i))));
     let (lo0, hi0) = range(&|i| lum.data()[i]);
