@@ -165,10 +165,15 @@ fn diffuse(image: &Image, hole: &Mask) -> Image {
                 if !hole.get(x, y) {
                     continue;
                 }
-                let nb: Vec<(usize, usize)> = [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)].into_iter().filter(|&(a, b)| a < w && b < h).collect();
                 for ch in 0..c {
-                    let v = nb.iter().map(|&(a, b)| out.at(a, b, ch)).sum::<f32>() / nb.len() as f32;
-                    out.pixel_mut(x, y)[ch] = v;
+                    let (mut sum, mut n) = (0.0, 0.0);
+                    for (a, b) in [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)] {
+                        if a < w && b < h {
+                            sum += out.at(a, b, ch);
+                            n += 1.0;
+                        }
+                    }
+                    out.pixel_mut(x, y)[ch] = sum / n;
                 }
             }
         }

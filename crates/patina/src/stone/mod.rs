@@ -106,6 +106,8 @@ pub struct Frame {
     pub image: Image,
     /// The object still standing at t.
     pub mask: Mask,
+    /// Strength of the histogram match used (see [`match_luminance`]).
+    pub contrast: f32,
 }
 
 /// Side of the built-in rough-stone sample the default fractal is learned from.
@@ -194,7 +196,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     for (i, &t) in times.iter().enumerate() {
         let smoothed = update::update(&prep.linear, &prep.tendency, &prep.mask, &prep.patches, &prep.offsets, p.k, t);
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
-        let mut weathered = match_luminance(&rough, &prep.linear, &prep.mask);
+        let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask);
         if erode {
             for _ in done..erosion::iterations(object_pixels, p.erosion_speed, t) {
                 erosion.step();
@@ -220,7 +222,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
             let background = Mask::from_fn(w, h, |x, y| !prep.mask.get(x, y));
             image = erosion::fill_background(&image, &background, &eroded, crate::rng::derive(seed, &[i as u64]))?;
         }
-        frames.push(Frame { t, image, mask: object });
+        frames.push(Frame { t, image, mask: object, contrast });
         if let Some(report) = progress {
             report(i as u64 + 1, times.len() as u64);
         }
@@ -228,20 +230,39 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     Ok(frames)
 }
 
-/// Section 6's contrast step: map the object's luminance so its histogram
-/// equals the original's (rank to quantile), and scale the colour channels
-/// by the same ratio. Outside the mask the image is unchanged.
-pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask) -> Image {
+/// KS distance the contrast step settles for (the tolerance).
+pub const CONTRAST_KS: f32 = 0.05;
+
+/// The contrast step: bring the object's luminance histogram back to the
+/// original's, and scale the colour channels by the same ratio. Outside the
+/// mask the image is unchanged.
+///
+/// Departure from an exact match: the exact (rank to quantile) match is
+/// blended in with the smallest strength s in 0, 1/16, ..., 1 whose result
+/// is within [`CONTRAST_KS`] of the original's histogram. The exact match
+/// restores the shadows the smoothing removed by darkening whatever is
+/// darkest in the worn areas: on a test relief it raised the carvings'
+/// band energy above the original (0.0025 -> 0.0033 at t = 200, where the
+/// smoothing alone gave 0.0013), and on the gravestone it drew dark blotches
+/// around the letters. Returns the image and s.
+pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask) -> (Image, f32) {
     let w = image.width();
     let (lum, reference_lum) = (luminance(image), luminance(reference));
     let inside: Vec<usize> = (0..mask.bits().len()).filter(|&i| mask.bits()[i]).collect();
     let mut order = inside.clone();
     order.sort_unstable_by(|&a, &b| lum.data()[a].total_cmp(&lum.data()[b]).then(a.cmp(&b)));
-    let mut target: Vec<f32> = inside.iter().map(|&i| reference_lum.data()[i]).collect();
+    let reference_values: Vec<f32> = inside.iter().map(|&i| reference_lum.data()[i]).collect();
+    let mut target = reference_values.clone();
     target.sort_unstable_by(f32::total_cmp);
-    let mut out = image.clone();
+    let mut matched = vec![0f32; lum.data().len()];
     for (rank, &i) in order.iter().enumerate() {
-        let (old, new) = (lum.data()[i], target[rank]);
+        matched[i] = target[rank];
+    }
+    let blend = |s: f32| inside.iter().map(|&i| lum.data()[i] + s * (matched[i] - lum.data()[i])).collect::<Vec<f32>>();
+    let strength = (0..=16).map(|k| k as f32 / 16.0).find(|&s| crate::metrics::ks_distance(&blend(s), &reference_values) <= CONTRAST_KS).unwrap_or(1.0);
+    let mut out = image.clone();
+    for &i in &inside {
+        let (old, new) = (lum.data()[i], lum.data()[i] + strength * (matched[i] - lum.data()[i]));
         let px = out.pixel_mut(i % w, i / w);
         if old > 1e-5 {
             px.iter_mut().for_each(|v| *v *= new / old);
@@ -249,5 +270,5 @@ pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask) -> Image {
             px.iter_mut().for_each(|v| *v += new - old);
         }
     }
-    out
+    (out, strength)
 }

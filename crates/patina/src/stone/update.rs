@@ -111,7 +111,14 @@ pub fn best_offsets(patches: &[Patch], maps: &SearchMaps, params: &MatchParams) 
 
 /// Eq. (2) and the Poisson solve for every patch:
 /// Lap I_t(p0) = w Lap I_0(p0) + (1 - w) Lap I_0(p1), w = exp(-k mean d(p0) t),
-/// with I_t = I_0 on the pixels around p0 (Dirichlet). Where the shifted
+/// with I_t = I_0 on the pixels around p0 (Dirichlet).
+///
+/// Departure: the blend is divided by sqrt(w^2 + (1 - w)^2), making it
+/// variance-preserving. The grain of p0 and p1 is uncorrelated, so the
+/// plain blend loses up to half its energy (measured: -53% at t = 100 on
+/// the test relief, where the issue asks for at most 25%); the carving,
+/// present in p0 only, still fades as w / sqrt(w^2 + (1 - w)^2). w = 1
+/// gives exactly eq. (2). Where the shifted
 /// pixel is off the object, its own Laplacian is kept. Patches are solved
 /// independently (in parallel), every channel of `image`.
 pub fn update(image: &Image, tendency: &Image, mask: &Mask, patches: &[Patch], offsets: &[(isize, isize)], k: f32, t: f32) -> Image {
@@ -197,6 +204,8 @@ fn solve_patch(image: &Image, lap: &Image, mask: &Mask, patch: &Patch, (dx, dy):
             }
         }
     }
+    let wt = weight as f64;
+    let preserve = 1.0 / (wt * wt + (1.0 - wt) * (1.0 - wt)).sqrt();
     let mut out = vec![0f32; n * c];
     for ch in 0..c {
         let mut b = vec![0f64; n];
@@ -208,7 +217,7 @@ fn solve_patch(image: &Image, lap: &Image, mask: &Mask, patch: &Patch, (dx, dy):
             let borrowed = sx >= 0 && sy >= 0 && (sx as usize) < w && (sy as usize) < h && mask.get(sx as usize, sy as usize);
             let g_own = lap.at(x, y, ch) as f64;
             let g_other = if borrowed { lap.at(sx as usize, sy as usize, ch) as f64 } else { g_own };
-            let g = weight as f64 * g_own + (1.0 - weight as f64) * g_other;
+            let g = (wt * g_own + (1.0 - wt) * g_other) * preserve;
             let mut fixed = 0.0;
             for (nx, ny) in neighbours(x, y, w, h) {
                 if index(nx, ny).is_none() {
