@@ -72,7 +72,8 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("stone", args.seed);
-    let inputs: Vec<&Path> = [Some(args.photo.as_path()), args.mask.as_deref(), args.rough_sample.as_deref()].into_iter().flatten().collect();
+    let inputs: Vec<&Path> =
+        [Some(args.photo.as_path()), args.mask.as_deref(), args.rough_sample.as_deref()].into_iter().flatten().collect();
     let masks: Vec<String> = (0..args.times.len()).map(|i| format!("mask_t{i:03}.png")).collect();
     let mut extra = vec!["tendency.png", "segments.png"];
     extra.extend(masks.iter().map(String::as_str));

@@ -367,3 +367,46 @@ fn stbrdf_bad_input_is_one_line_exit_2_and_leaves_nothing() {
     fails_cleanly(&dir, &["stbrdf", "render", s(&steps), "-o", o], "material");
     fails_cleanly(&dir, &["stbrdf", "enlarge", s(&dir.join("nothing")), "-o", o], "not a material folder");
 }
+
+#[test]
+fn stone_writes_frames_masks_and_is_the_same_on_any_thread_count() {
+    let dir = scratch("stone");
+    let (w, h) = (96, 80);
+    let slab = patina::Mask::from_fn(w, h, |x, y| (16..80).contains(&x) && (16..70).contains(&y));
+    let photo = patina::Image::from_fn(w, h, 3, |x, y, p| {
+        let v = if slab.get(x, y) {
+            0.5 + if (x / 6 + y / 8) % 2 == 0 { 0.2 } else { 0.0 }
+        } else {
+            0.2 + 0.1 * ((x * 7 + y * 3) % 5) as f32 / 5.0
+        };
+        p.copy_from_slice(&[v, v, v * 0.9]);
+    });
+    let (img, mask) = (dir.join("photo.png"), dir.join("mask.png"));
+    save_png(&photo, &img, BitDepth::Eight).unwrap();
+    save_png(&slab.to_image(), &mask, BitDepth::Eight).unwrap();
+    let run = |out: &Path, threads: usize| {
+        let r = patina(
+            &["stone", s(&img), "--mask", s(&mask), "-o", s(out), "--times", "0,50,100", "--erosion-speed", "0.003", "--n", "200"],
+            Some(threads),
+        );
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    };
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    run(&a, 1);
+    run(&b, 2);
+    for name in ["frames/000.png", "frames/002.png", "tendency.png", "segments.png", "mask_t002.png", "sequence.gif", "manifest.json"] {
+        let (x, y) = (std::fs::read(a.join(name)).unwrap(), std::fs::read(b.join(name)).unwrap());
+        if name != "manifest.json" {
+            assert_eq!(x, y, "{name} differs between 1 and 2 threads");
+        }
+    }
+    let first = patina::image::io::load(a.join("mask_t000.png")).unwrap();
+    let last = patina::image::io::load(a.join("mask_t002.png")).unwrap();
+    let area = |m: &patina::Image| m.data().iter().filter(|&&v| v > 0.5).count();
+    assert_eq!(area(&first), slab.count());
+    assert!(area(&last) < area(&first), "the silhouette should erode");
+    fails_cleanly(&dir, &["stone", s(&img), "--mask", s(&dir.join("nothing.png")), "-o", s(&dir.join("c"))], "nothing.png");
+    fails_cleanly(&dir, &["stone", s(&img), "-o", s(&dir.join("c")), "--times", "50,10"], "ascending");
+    save_png(&patina::Image::new(40, 40, 1), dir.join("small.png"), BitDepth::Eight).unwrap();
+    fails_cleanly(&dir, &["stone", s(&img), "--mask", s(&dir.join("small.png")), "-o", s(&dir.join("c"))], "mask");
+}

@@ -151,31 +151,6 @@ pub fn flicker(frames: &[Image]) -> f64 {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn auc_is_one_for_separated_scores_and_half_for_ties() {
-        assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[false, false, true, true]), 1.0);
-        assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[true, true, false, false]), 0.0);
-        assert_eq!(roc_auc(&[0.5; 4], &[true, false, true, false]), 0.5);
-    }
-
-    use super::*;
-
-    #[test]
-    fn a_crop_is_coherent_and_a_foreign_image_is_not() {
-        let ex = crate::samples::cobbles(64, 64, 3);
-        let crop = ex.crop(8, 8, 40, 40).unwrap();
-        let b = bidirectional(&crop, &ex, 5, 1).unwrap();
-        assert!(b.coherence < 1e-3, "a crop's patches all exist in the exemplar: {}", b.coherence);
-        assert!(b.completeness > 0.02, "the crop misses most of the exemplar: {}", b.completeness);
-        let other = crate::samples::bricks(40, 40, 3);
-        assert!(bidirectional(&other, &ex, 5, 1).unwrap().coherence > 0.05);
-        let own = self_similarity(&ex, 5, 1).unwrap();
-        assert!(own > 0.0 && own < 0.2, "{own}");
-    }
-}
-
 /// Radially averaged power spectrum of channel 0 (mean removed): entry k is
 /// the mean |FFT|^2 / (w h) over frequencies whose radius, in cycles per
 /// pixel, lies in [k, k + 1) / min(w, h); k = 1 .. min(w, h) / 2 (entry 0
@@ -214,7 +189,8 @@ pub fn radial_power_spectrum(img: &Image) -> Vec<f64> {
 /// The least-squares slope of log power against log frequency over the
 /// bins `lo..=hi` of a [`radial_power_spectrum`] (-2 for a 1/f^2 spectrum).
 pub fn spectral_slope(spectrum: &[f64], lo: usize, hi: usize) -> f64 {
-    let pts: Vec<(f64, f64)> = (lo..=hi.min(spectrum.len() - 1)).filter(|&k| spectrum[k] > 0.0).map(|k| ((k as f64).ln(), spectrum[k].ln())).collect();
+    let pts: Vec<(f64, f64)> =
+        (lo..=hi.min(spectrum.len() - 1)).filter(|&k| spectrum[k] > 0.0).map(|k| ((k as f64).ln(), spectrum[k].ln())).collect();
     let n = pts.len() as f64;
     let (mx, my) = (pts.iter().map(|p| p.0).sum::<f64>() / n, pts.iter().map(|p| p.1).sum::<f64>() / n);
     let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
@@ -240,4 +216,29 @@ pub fn ks_distance(a: &[f32], b: &[f32]) -> f32 {
         worst = worst.max((i as f32 / a.len() as f32 - j as f32 / b.len() as f32).abs());
     }
     worst
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn auc_is_one_for_separated_scores_and_half_for_ties() {
+        assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[false, false, true, true]), 1.0);
+        assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[true, true, false, false]), 0.0);
+        assert_eq!(roc_auc(&[0.5; 4], &[true, false, true, false]), 0.5);
+    }
+
+    use super::*;
+
+    #[test]
+    fn a_crop_is_coherent_and_a_foreign_image_is_not() {
+        let ex = crate::samples::cobbles(64, 64, 3);
+        let crop = ex.crop(8, 8, 40, 40).unwrap();
+        let b = bidirectional(&crop, &ex, 5, 1).unwrap();
+        assert!(b.coherence < 1e-3, "a crop's patches all exist in the exemplar: {}", b.coherence);
+        assert!(b.completeness > 0.02, "the crop misses most of the exemplar: {}", b.completeness);
+        let other = crate::samples::bricks(40, 40, 3);
+        assert!(bidirectional(&other, &ex, 5, 1).unwrap().coherence > 0.05);
+        let own = self_similarity(&ex, 5, 1).unwrap();
+        assert!(own > 0.0 && own < 0.2, "{own}");
+    }
 }

@@ -83,7 +83,9 @@ fn the_silhouette_erodes_monotonically_and_fastest_at_the_top() {
         assert!(pair[1] < pair[0], "the object must shrink at every step: {areas:?}");
     }
     let last = &frames[3];
-    let lost = |rows: std::ops::Range<usize>| rows.flat_map(|y| (0..W).map(move |x| (x, y))).filter(|&(x, y)| mask.get(x, y) && !last.mask.get(x, y)).count();
+    let lost = |rows: std::ops::Range<usize>| {
+        rows.flat_map(|y| (0..W).map(move |x| (x, y))).filter(|&(x, y)| mask.get(x, y) && !last.mask.get(x, y)).count()
+    };
     let (top, bottom) = (lost(24..40), lost(H - 40..H - 24));
     assert!(top > bottom * 6 / 5, "top lost {top} px, bottom {bottom}");
     // Only object pixels change: the background is bit-identical except where stone was removed.
@@ -97,7 +99,8 @@ fn the_silhouette_erodes_monotonically_and_fastest_at_the_top() {
         }
     }
     // Removed pixels are filled from the background (green), not left as stone.
-    let removed: Vec<(usize, usize)> = (0..W * H).map(|i| (i % W, i / W)).filter(|&(x, y)| mask.get(x, y) && !last.mask.get(x, y)).collect();
+    let removed: Vec<(usize, usize)> =
+        (0..W * H).map(|i| (i % W, i / W)).filter(|&(x, y)| mask.get(x, y) && !last.mask.get(x, y)).collect();
     let green = removed.iter().filter(|&&(x, y)| last.image.at(x, y, 1) > last.image.at(x, y, 0) + 0.08).count();
     assert!(green * 10 >= removed.len() * 9, "{green} of {} eroded pixels look like background", removed.len());
 }
@@ -131,4 +134,3 @@ fn the_same_seed_gives_the_same_frames_and_bad_input_is_refused() {
     let bad = StoneParams { eta: -1.0, ..params };
     assert!(stone::prepare(&photo(), Some(&slab()), None, &bad).err().unwrap().to_string().contains("eta"));
 }
-

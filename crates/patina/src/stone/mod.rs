@@ -10,7 +10,7 @@
 //!
 //! ```no_run
 //! # use patina::{image::io, stone::{self, StoneParams}};
-//! let photo = io::load("statue.jpg".as_ref()).unwrap();
+//! let photo = io::load("statue.jpg").unwrap();
 //! let prepared = stone::prepare(&photo, None, None, &StoneParams::default()).unwrap();
 //! let frames = stone::sequence(&prepared, &[0.0, 50.0, 100.0], 7, None).unwrap();
 //! ```
@@ -153,7 +153,11 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
     };
     let mean = sample.data().iter().sum::<f32>() / sample.data().len() as f32;
     if sample.width() < 16 || sample.height() < 16 || mean <= 1e-4 {
-        return Err(Error::invalid(format!("the rough-stone sample must be at least 16x16 and not black (got {}x{})", sample.width(), sample.height())));
+        return Err(Error::invalid(format!(
+            "the rough-stone sample must be at least 16x16 and not black (got {}x{})",
+            sample.width(),
+            sample.height()
+        )));
     }
     let fractal = Fractal::learn(&sample.map(|v| v / mean));
     Ok(Prepared { linear, original: rgb, mask, masked, tendency, patches, offsets, fractal, params: params.clone() })
@@ -198,7 +202,8 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask);
         if erode {
-            for _ in done..erosion::iterations(object_pixels, p.erosion_speed, t) {
+            let target = erosion::iterations(object_pixels, p.erosion_speed, t);
+            while done < target {
                 erosion.step();
                 done += 1;
             }
@@ -259,7 +264,10 @@ pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask) -> (Image,
         matched[i] = target[rank];
     }
     let blend = |s: f32| inside.iter().map(|&i| lum.data()[i] + s * (matched[i] - lum.data()[i])).collect::<Vec<f32>>();
-    let strength = (0..=16).map(|k| k as f32 / 16.0).find(|&s| crate::metrics::ks_distance(&blend(s), &reference_values) <= CONTRAST_KS).unwrap_or(1.0);
+    let strength = (0..=16)
+        .map(|k| k as f32 / 16.0)
+        .find(|&s| crate::metrics::ks_distance(&blend(s), &reference_values) <= CONTRAST_KS)
+        .unwrap_or(1.0);
     let mut out = image.clone();
     for &i in &inside {
         let (old, new) = (lum.data()[i], lum.data()[i] + strength * (matched[i] - lum.data()[i]));

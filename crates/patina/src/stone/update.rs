@@ -294,7 +294,8 @@ mod tests {
 
     fn relief() -> (Image, Image, Mask) {
         let img = Image::from_fn(64, 48, 3, |x, y, p| {
-            let v = 0.4 + 0.3 * ((x as f32 * 0.7).sin() * (y as f32 * 0.5).cos()) + 0.05 * crate::samples::value_noise(3, x as f32, y as f32);
+            let v =
+                0.4 + 0.3 * ((x as f32 * 0.7).sin() * (y as f32 * 0.5).cos()) + 0.05 * crate::samples::value_noise(3, x as f32, y as f32);
             p.copy_from_slice(&[v, v * 0.9, v * 0.8]);
         });
         let d = Image::from_fn(64, 48, 1, |x, _, p| p[0] = x as f32 / 63.0);
