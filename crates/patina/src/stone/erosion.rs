@@ -3,6 +3,7 @@
 //! above counting double (weather comes from above), and are removed when
 //! it runs out, bleeding their colour inward first.
 
+use super::{bounds, neighbours, set_pixels};
 use crate::image::{Image, Mask};
 use crate::samples::fractal_noise;
 use crate::synth::{OptimizeParams, Synthesis};
@@ -61,10 +62,7 @@ impl Erosion {
     /// image) outside the object.
     fn on_silhouette(&self, x: usize, y: usize) -> bool {
         let (w, h) = self.object.size();
-        self.object.get(x, y)
-            && [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)]
-                .iter()
-                .any(|&(a, b)| a < w && b < h && !self.object.get(a, b))
+        self.object.get(x, y) && neighbours(x, y, w, h).any(|(a, b)| !self.object.get(a, b))
     }
 
     /// One iteration: every silhouette pixel's durability drops by its rate
@@ -92,8 +90,8 @@ impl Erosion {
         for &i in &removed {
             let (x, y) = (i % w, i / w);
             let colour: Vec<f32> = self.colours.pixel(x, y).to_vec();
-            for (a, b) in [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)] {
-                if a < w && b < h && self.object.get(a, b) {
+            for (a, b) in neighbours(x, y, w, h) {
+                if self.object.get(a, b) {
                     let px = self.colours.pixel_mut(a, b);
                     for ch in 0..c {
                         px[ch] = (1.0 - self.bleed) * px[ch] + self.bleed * colour[ch];
@@ -117,14 +115,9 @@ pub fn iterations(object_pixels: usize, epsilon: f32, t: f32) -> usize {
 /// diffusion fill is used instead. Every other pixel of `image` is kept.
 pub fn fill_background(image: &Image, background: &Mask, eroded: &Mask, seed: u64) -> Result<Image> {
     let (w, h) = image.size();
-    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
-    for (i, _) in eroded.bits().iter().enumerate().filter(|(_, &b)| b) {
-        let (x, y) = (i % w, i / w);
-        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
-    }
-    if x0 == usize::MAX {
+    let Some((x0, y0, x1, y1)) = bounds(set_pixels(eroded), w) else {
         return Ok(image.clone());
-    }
+    };
     let margin = 24;
     let (cx, cy) = (x0.saturating_sub(margin), y0.saturating_sub(margin));
     let (cw, ch) = ((x1 + margin + 1).min(w) - cx, (y1 + margin + 1).min(h) - cy);
@@ -167,11 +160,9 @@ fn diffuse(image: &Image, hole: &Mask) -> Image {
                 }
                 for ch in 0..c {
                     let (mut sum, mut n) = (0.0, 0.0);
-                    for (a, b) in [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)] {
-                        if a < w && b < h {
-                            sum += out.at(a, b, ch);
-                            n += 1.0;
-                        }
+                    for (a, b) in neighbours(x, y, w, h) {
+                        sum += out.at(a, b, ch);
+                        n += 1.0;
                     }
                     out.pixel_mut(x, y)[ch] = sum / n;
                 }

@@ -139,11 +139,7 @@ pub fn segment(tendency: &Image, mask: &Mask, params: &SegmentParams) -> Vec<Pat
 /// Split at the median coordinate along the longer side of the bounding box.
 fn bisect(mut pixels: Vec<u32>, w: usize) -> (Vec<u32>, Vec<u32>) {
     let xy = |p: u32| ((p as usize % w) as u32, (p as usize / w) as u32);
-    let (mut x0, mut x1, mut y0, mut y1) = (u32::MAX, 0, u32::MAX, 0);
-    for &p in &pixels {
-        let (x, y) = xy(p);
-        (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
-    }
+    let (x0, y0, x1, y1) = super::bounds(pixels.iter().map(|&p| p as usize), w).expect("only oversized patches are bisected");
     let along_x = x1 - x0 >= y1 - y0;
     let key = |p: u32| {
         let (x, y) = xy(p);

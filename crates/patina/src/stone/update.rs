@@ -4,6 +4,7 @@
 //! problem with its border fixed to the original.
 
 use super::segment::Patch;
+use super::{bounds, neighbours, set_pixels};
 use crate::image::{Image, Mask};
 use rayon::prelude::*;
 
@@ -62,11 +63,9 @@ fn cost(maps: &SearchMaps, pixels: &[u32], mean_i0: f32, (dx, dy): (isize, isize
 pub fn best_offsets(patches: &[Patch], maps: &SearchMaps, params: &MatchParams) -> Vec<(isize, isize)> {
     let (w, _) = maps.mask.size();
     let object = maps.mask.count().max(1);
-    let (mut bx0, mut by0, mut bx1, mut by1) = (usize::MAX, usize::MAX, 0, 0);
-    for (i, _) in maps.mask.bits().iter().enumerate().filter(|(_, &b)| b) {
-        let (x, y) = (i % w, i / w);
-        (bx0, by0, bx1, by1) = (bx0.min(x), by0.min(y), bx1.max(x), by1.max(y));
-    }
+    let Some((bx0, by0, bx1, by1)) = bounds(set_pixels(maps.mask), w) else {
+        return vec![(0, 0); patches.len()];
+    };
     let top = ((object as f32).sqrt() / 64.0).log2().floor().max(0.0) as u32;
     patches
         .par_iter()
@@ -161,10 +160,6 @@ pub fn laplacian(img: &Image) -> Image {
     out
 }
 
-fn neighbours(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
-    [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)].into_iter().filter(move |&(a, b)| a < w && b < h)
-}
-
 /// Solve one patch: conjugate gradients on the SPD system
 /// count x u_p - sum(unknown neighbours) = sum(fixed neighbours) - G_p,
 /// started from I_0 (exact, zero iterations, when w = 1), per channel, in f64.
@@ -173,11 +168,7 @@ fn solve_patch(image: &Image, lap: &Image, mask: &Mask, patch: &Patch, (dx, dy):
     let (w, h, c) = (image.width(), image.height(), image.channels());
     let n = patch.pixels.len();
     // Local index of each patch pixel through a bounding-box lookup.
-    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
-    for &p in &patch.pixels {
-        let (x, y) = (p as usize % w, p as usize / w);
-        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
-    }
+    let (x0, y0, x1, y1) = bounds(patch.pixels.iter().map(|&p| p as usize), w).expect("patches are not empty");
     let bw = x1 - x0 + 1;
     let mut local = vec![u32::MAX; bw * (y1 - y0 + 1)];
     for (i, &p) in patch.pixels.iter().enumerate() {
