@@ -204,6 +204,11 @@ pub fn ks_distance(a: &[f32], b: &[f32]) -> f32 {
     let (mut a, mut b) = (a.to_vec(), b.to_vec());
     a.sort_unstable_by(f32::total_cmp);
     b.sort_unstable_by(f32::total_cmp);
+    ks_distance_sorted(&a, &b)
+}
+
+/// [`ks_distance`] of two samples already sorted in ascending order.
+pub fn ks_distance_sorted(a: &[f32], b: &[f32]) -> f32 {
     let (mut i, mut j, mut worst) = (0, 0, 0f32);
     while i < a.len() && j < b.len() {
         let v = a[i].min(b[j]);

@@ -114,6 +114,8 @@ pub struct Prepared {
     pub patches: Vec<Patch>,
     /// Each patch's best-match offset c1 - c0 under eq. (1).
     pub offsets: Vec<(isize, isize)>,
+    /// The 4-neighbour Laplacian of `linear`, which eq. (2) blends at every t.
+    pub laplacian: Image,
     pub fractal: Fractal,
     pub params: StoneParams,
 }
@@ -179,7 +181,8 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         )));
     }
     let fractal = Fractal::learn(&sample.map(|v| v / mean));
-    Ok(Prepared { linear, original: rgb, mask, masked, tendency, patches, offsets, fractal, params: params.clone() })
+    let laplacian = update::laplacian(&linear);
+    Ok(Prepared { linear, original: rgb, mask, masked, tendency, patches, offsets, laplacian, fractal, params: params.clone() })
 }
 
 fn check_params(p: &StoneParams) -> Result<()> {
@@ -217,7 +220,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let mut done = 0;
     let mut frames = Vec::with_capacity(times.len());
     for (i, &t) in times.iter().enumerate() {
-        let smoothed = update::update(&prep.linear, &prep.tendency, &prep.mask, &prep.patches, &prep.offsets, p.k, t);
+        let smoothed = update::update(&prep.linear, &prep.laplacian, &prep.tendency, &prep.mask, &prep.patches, &prep.offsets, p.k, t);
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask);
         if erode {
@@ -272,21 +275,29 @@ pub const CONTRAST_KS: f32 = 0.05;
 pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask) -> (Image, f32) {
     let w = image.width();
     let (lum, reference_lum) = (luminance(image), luminance(reference));
-    let inside: Vec<usize> = (0..mask.bits().len()).filter(|&i| mask.bits()[i]).collect();
+    let inside: Vec<usize> = set_pixels(mask).collect();
     let mut order = inside.clone();
     order.sort_unstable_by(|&a, &b| lum.data()[a].total_cmp(&lum.data()[b]).then(a.cmp(&b)));
-    let reference_values: Vec<f32> = inside.iter().map(|&i| reference_lum.data()[i]).collect();
-    let mut target = reference_values.clone();
+    let mut target: Vec<f32> = inside.iter().map(|&i| reference_lum.data()[i]).collect();
     target.sort_unstable_by(f32::total_cmp);
     let mut matched = vec![0f32; lum.data().len()];
     for (rank, &i) in order.iter().enumerate() {
         matched[i] = target[rank];
     }
-    let blend = |s: f32| inside.iter().map(|&i| lum.data()[i] + s * (matched[i] - lum.data()[i])).collect::<Vec<f32>>();
-    let strength = (0..=16)
-        .map(|k| k as f32 / 16.0)
-        .find(|&s| crate::metrics::ks_distance(&blend(s), &reference_values) <= CONTRAST_KS)
-        .unwrap_or(1.0);
+    // Walking `order`, both the luminance and its exact match ascend, so
+    // every blend of them is sorted (up to rounding, which the check below
+    // catches): the per-candidate sort is almost always skipped.
+    let mut blended = vec![0f32; order.len()];
+    let mut within = |s: f32| {
+        for (v, &i) in blended.iter_mut().zip(&order) {
+            *v = lum.data()[i] + s * (matched[i] - lum.data()[i]);
+        }
+        if blended.windows(2).any(|p| p[1] < p[0]) {
+            blended.sort_unstable_by(f32::total_cmp);
+        }
+        crate::metrics::ks_distance_sorted(&blended, &target) <= CONTRAST_KS
+    };
+    let strength = (0..=16).map(|k| k as f32 / 16.0).find(|&s| within(s)).unwrap_or(1.0);
     let mut out = image.clone();
     for &i in &inside {
         let (old, new) = (lum.data()[i], lum.data()[i] + strength * (matched[i] - lum.data()[i]));

@@ -120,15 +120,24 @@ pub fn best_offsets(patches: &[Patch], maps: &SearchMaps, params: &MatchParams) 
 /// gives exactly eq. (2). Where the shifted
 /// pixel is off the object, its own Laplacian is kept. Patches are solved
 /// independently (in parallel), every channel of `image`.
-pub fn update(image: &Image, tendency: &Image, mask: &Mask, patches: &[Patch], offsets: &[(isize, isize)], k: f32, t: f32) -> Image {
-    let lap = laplacian(image);
+/// `lap` is [`laplacian`] of `image` (computed once for all t).
+pub fn update(
+    image: &Image,
+    lap: &Image,
+    tendency: &Image,
+    mask: &Mask,
+    patches: &[Patch],
+    offsets: &[(isize, isize)],
+    k: f32,
+    t: f32,
+) -> Image {
     let solved: Vec<Vec<f32>> = patches
         .par_iter()
         .zip(offsets)
         .map(|(patch, &off)| {
             let mean_d = patch.pixels.iter().map(|&p| tendency.data()[p as usize]).sum::<f32>() / patch.pixels.len() as f32;
             let weight = (-k * mean_d * t).exp();
-            solve_patch(image, &lap, mask, patch, off, weight)
+            solve_patch(image, lap, mask, patch, off, weight)
         })
         .collect();
     let mut out = image.clone();
@@ -299,7 +308,7 @@ mod tests {
         let patches = segment(&d, &mask, &SegmentParams { n: 40.0, ..Default::default() });
         let offsets = vec![(7isize, -3isize); patches.len()];
         // t = 0 gives w = 1 for every patch.
-        let out = update(&img, &d, &mask, &patches, &offsets, 0.01, 0.0);
+        let out = update(&img, &laplacian(&img), &d, &mask, &patches, &offsets, 0.01, 0.0);
         let err = img.data().iter().zip(out.data()).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
         assert!(err <= 1e-4, "max error {err}");
     }
@@ -309,7 +318,7 @@ mod tests {
         let (img, d, mask) = relief();
         let patches = segment(&d, &mask, &SegmentParams { n: 40.0, ..Default::default() });
         let offsets = vec![(5isize, 2isize); patches.len()];
-        let out = update(&img, &d, &mask, &patches, &offsets, 1.0, 1e6);
+        let out = update(&img, &laplacian(&img), &d, &mask, &patches, &offsets, 1.0, 1e6);
         // With w ~ 0 inside each patch the Laplacian equals the borrowed one
         // wherever all four neighbours lie in the same patch.
         let (lo, li) = (laplacian(&out), laplacian(&img));
