@@ -220,7 +220,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let mut done = 0;
     let mut frames = Vec::with_capacity(times.len());
     for (i, &t) in times.iter().enumerate() {
-        let smoothed = update::update(&prep.linear, &prep.laplacian, &prep.tendency, &prep.mask, &prep.patches, &prep.offsets, p.k, t);
+        let smoothed = update::update(&prep.linear, &prep.laplacian, &prep.tendency, &prep.mask, &prep.patches, &prep.offsets, (p.k, t));
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask);
         if erode {

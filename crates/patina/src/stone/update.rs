@@ -110,17 +110,18 @@ pub fn best_offsets(patches: &[Patch], maps: &SearchMaps, params: &MatchParams) 
 
 /// Eq. (2) and the Poisson solve for every patch:
 /// Lap I_t(p0) = w Lap I_0(p0) + (1 - w) Lap I_0(p1), w = exp(-k mean d(p0) t),
-/// with I_t = I_0 on the pixels around p0 (Dirichlet).
+/// with I_t = I_0 on the pixels around p0 (Dirichlet), for `(k, t)`.
+/// `lap` is [`laplacian`] of
+/// `image`, computed once for all t. Where the shifted pixel is off the
+/// object, its own Laplacian is kept. Patches are solved independently (in
+/// parallel), every channel of `image`.
 ///
 /// Departure: the blend is divided by sqrt(w^2 + (1 - w)^2), making it
 /// variance-preserving. The grain of p0 and p1 is uncorrelated, so the
 /// plain blend loses up to half its energy (measured: -53% at t = 100 on
 /// the test relief, where the issue asks for at most 25%); the carving,
 /// present in p0 only, still fades as w / sqrt(w^2 + (1 - w)^2). w = 1
-/// gives exactly eq. (2). Where the shifted
-/// pixel is off the object, its own Laplacian is kept. Patches are solved
-/// independently (in parallel), every channel of `image`.
-/// `lap` is [`laplacian`] of `image` (computed once for all t).
+/// gives exactly eq. (2).
 pub fn update(
     image: &Image,
     lap: &Image,
@@ -128,8 +129,7 @@ pub fn update(
     mask: &Mask,
     patches: &[Patch],
     offsets: &[(isize, isize)],
-    k: f32,
-    t: f32,
+    (k, t): (f32, f32),
 ) -> Image {
     let solved: Vec<Vec<f32>> = patches
         .par_iter()
@@ -308,7 +308,7 @@ mod tests {
         let patches = segment(&d, &mask, &SegmentParams { n: 40.0, ..Default::default() });
         let offsets = vec![(7isize, -3isize); patches.len()];
         // t = 0 gives w = 1 for every patch.
-        let out = update(&img, &laplacian(&img), &d, &mask, &patches, &offsets, 0.01, 0.0);
+        let out = update(&img, &laplacian(&img), &d, &mask, &patches, &offsets, (0.01, 0.0));
         let err = img.data().iter().zip(out.data()).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
         assert!(err <= 1e-4, "max error {err}");
     }
@@ -318,7 +318,7 @@ mod tests {
         let (img, d, mask) = relief();
         let patches = segment(&d, &mask, &SegmentParams { n: 40.0, ..Default::default() });
         let offsets = vec![(5isize, 2isize); patches.len()];
-        let out = update(&img, &laplacian(&img), &d, &mask, &patches, &offsets, 1.0, 1e6);
+        let out = update(&img, &laplacian(&img), &d, &mask, &patches, &offsets, (1.0, 1e6));
         // With w ~ 0 inside each patch the Laplacian equals the borrowed one
         // wherever all four neighbours lie in the same patch.
         let (lo, li) = (laplacian(&out), laplacian(&img));
