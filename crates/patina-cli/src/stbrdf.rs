@@ -3,6 +3,7 @@
 
 use crate::output::{check_outputs, mkdir, parse_size, refuse_overwrite, side_by_side, Manifest, Stopwatch};
 use crate::progress::with_bar;
+use crate::synth::GuideArgs;
 use patina::image::io::{self, save_gif, save_png, BitDepth};
 use patina::image::sequence::{load_sequence, natural_cmp};
 use patina::image::Image;
@@ -69,15 +70,8 @@ pub struct EnlargeArgs {
     /// Weight per parameter, comma-separated in the material's order [default: 1 each]
     #[arg(long, value_delimiter = ',')]
     pub weights: Option<Vec<f32>>,
-    /// Guide of the material's size (e.g. a gradient), with --target-guide.
-    #[arg(long, requires = "target_guide")]
-    pub source_guide: Option<PathBuf>,
-    /// Guide of the output's size, with --source-guide.
-    #[arg(long, requires = "source_guide")]
-    pub target_guide: Option<PathBuf>,
-    /// Weight of the guides against the material.
-    #[arg(long, default_value_t = 1.0)]
-    pub guide_weight: f32,
+    #[command(flatten)]
+    pub guide: GuideArgs,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -262,17 +256,14 @@ fn run_enlarge(args: EnlargeArgs) -> Result<()> {
         None => return Err(Error::invalid(format!("--scale must be positive, got {}", args.scale))),
     };
     refuse_overwrite(&material_outputs(&args.out, &material), &[&args.material])?;
-    let guides = match (&args.source_guide, &args.target_guide) {
-        (Some(s), Some(t)) => Some((io::load(s)?, io::load(t)?)),
-        _ => None,
-    };
+    let guides = args.guide.load()?;
     let params = OptimizeParams::default();
     let out = with_bar("enlarge", |report| {
         enlarge::enlarge(
             &material,
             size,
             args.weights.as_deref(),
-            guides.as_ref().map(|(s, t)| (s, t, args.guide_weight)),
+            guides.as_ref().map(|(s, t)| (s, t, args.guide.guide_weight)),
             &params,
             args.seed,
             Some(report),
@@ -281,9 +272,9 @@ fn run_enlarge(args: EnlargeArgs) -> Result<()> {
     let mut manifest = Manifest::new("stbrdf enlarge", args.seed);
     manifest.timings_ms.insert("enlarge".into(), clock.lap());
     out.save(&args.out)?;
-    manifest.params = json!({ "size": [size.0, size.1], "weights": args.weights, "guide_weight": args.guide_weight, "optimize": params });
-    manifest.inputs =
-        [Some(&args.material), args.source_guide.as_ref(), args.target_guide.as_ref()].into_iter().flatten().cloned().collect();
+    manifest.params =
+        json!({ "size": [size.0, size.1], "weights": args.weights, "guide_weight": args.guide.guide_weight, "optimize": params });
+    manifest.inputs = std::iter::once(args.material.as_path()).chain(args.guide.paths()).map(Path::to_path_buf).collect();
     manifest.write(&args.out.join("manifest.json"))?;
     eprintln!("patina stbrdf enlarge: {}x{} -> {}x{} in {}", w, h, size.0, size.1, args.out.display());
     Ok(())

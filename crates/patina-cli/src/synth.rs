@@ -4,6 +4,7 @@ use crate::output::{check_outputs, manifest_path, parse_size, Manifest, Stopwatc
 use crate::progress::with_bar;
 use clap::ValueEnum;
 use patina::image::io::{self, BitDepth};
+use patina::image::Image;
 use patina::synth::{Init, OptimizeParams, QuiltParams, Synthesis, VoteWeights};
 use patina::Result;
 use serde_json::json;
@@ -116,15 +117,8 @@ pub struct Args {
     /// Texture-transfer passes with guides, each with blocks a third smaller (quilt).
     #[arg(long, default_value_t = 3)]
     pub transfer_passes: usize,
-    /// Guide image for the exemplar (same size as the exemplar); needs --target-guide.
-    #[arg(long, requires = "target_guide")]
-    pub source_guide: Option<PathBuf>,
-    /// Guide image for the output (its size is the output size); needs --source-guide.
-    #[arg(long, requires = "source_guide")]
-    pub target_guide: Option<PathBuf>,
-    /// Weight of the guide term against appearance.
-    #[arg(long, default_value_t = 1.0)]
-    pub guide_weight: f32,
+    #[command(flatten)]
+    pub guide: GuideArgs,
     /// Bits per channel of a PNG output (8 or 16).
     #[arg(long, default_value_t = 8, value_parser = parse_bits)]
     pub bits: u8,
@@ -165,29 +159,55 @@ impl Args {
     }
 }
 
+/// A pair of guide images and their weight, shared by every command that
+/// synthesizes under guides.
+#[derive(clap::Args)]
+pub struct GuideArgs {
+    /// Guide image for the exemplar or material (same size as it); needs --target-guide.
+    #[arg(long, requires = "target_guide")]
+    pub source_guide: Option<PathBuf>,
+    /// Guide image for the output (its size is the output size); needs --source-guide.
+    #[arg(long, requires = "source_guide")]
+    pub target_guide: Option<PathBuf>,
+    /// Weight of the guide term against appearance.
+    #[arg(long, default_value_t = 1.0)]
+    pub guide_weight: f32,
+}
+
+impl GuideArgs {
+    /// The guide files given (none or both).
+    pub fn paths(&self) -> impl Iterator<Item = &Path> {
+        self.source_guide.as_deref().into_iter().chain(self.target_guide.as_deref())
+    }
+
+    /// Load the (source, target) guides, if given.
+    pub fn load(&self) -> Result<Option<(Image, Image)>> {
+        match (&self.source_guide, &self.target_guide) {
+            (Some(s), Some(t)) => Ok(Some((io::load(s)?, io::load(t)?))),
+            _ => Ok(None),
+        }
+    }
+}
+
 pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("synth", args.seed);
     let manifest_file = manifest_path(&args.out);
     let mut inputs: Vec<&Path> = vec![&args.exemplar];
-    inputs.extend(args.source_guide.as_deref());
-    inputs.extend(args.target_guide.as_deref());
+    inputs.extend(args.guide.paths());
     check_outputs(&[&args.out, &manifest_file], &inputs)?;
 
     let exemplar = io::load(&args.exemplar)?;
     io::output_format(&args.out, exemplar.channels())?;
     let depth = if args.bits == 16 { BitDepth::Sixteen } else { BitDepth::Eight };
-    let guides = match (&args.source_guide, &args.target_guide) {
-        (Some(s), Some(t)) => Some((io::load(s)?, io::load(t)?)),
-        _ => None,
-    };
+    let guides = args.guide.load()?;
     let size = args.size.or(guides.as_ref().map(|(_, t)| t.size())).unwrap_or((2 * exemplar.width(), 2 * exemplar.height()));
     manifest.timings_ms.insert("load".into(), clock.lap());
 
     let (image, mut params) = with_bar("synth", |report| -> Result<_> {
         let mut problem = Synthesis::new(&exemplar).size(size.0, size.1).seed(args.seed).progress(report);
         if let Some((s, t)) = &guides {
-            problem = problem.guides(s, t, args.guide_weight);
+            problem = problem.guides(s, t, args.guide.guide_weight);
         }
         Ok(match args.method {
             Method::Optimize => {
@@ -211,7 +231,7 @@ pub fn run(args: Args) -> Result<()> {
     io::save(&image, &args.out, depth)?;
     manifest.timings_ms.insert("save".into(), clock.lap());
     params["size"] = json!([size.0, size.1]);
-    params["guide_weight"] = json!(args.guide_weight);
+    params["guide_weight"] = json!(args.guide.guide_weight);
     params["bits"] = json!(args.bits);
     manifest.params = params;
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
