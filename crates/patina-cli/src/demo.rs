@@ -65,7 +65,32 @@ pub fn run(args: Args) -> Result<()> {
     eprintln!("patina demo: wrote {} images and manifest.json to {}", files.len(), args.out.display());
     weather_demo(&args)?;
     ttf_demo(&args)?;
-    stbrdf_demo(&args)
+    stbrdf_demo(&args)?;
+    stone_demo(&args)
+}
+
+/// A procedural carved stele (256 x 320) and its mask, weathered at the
+/// default times into OUT/stone/ like `patina stone`.
+fn stone_demo(args: &Args) -> Result<()> {
+    let dir = args.out.join("stone");
+    mkdir(&dir)?;
+    let (photo, mask) = samples::carved_stele(256, 320, args.seed);
+    let (photo_path, mask_path) = (dir.join("input.png"), dir.join("input_mask.png"));
+    save_png(&photo, &photo_path, BitDepth::Eight)?;
+    save_png(&mask.to_image(), &mask_path, BitDepth::Eight)?;
+    let seed = args.seed.to_string();
+    run_command(&[
+        "stone".as_ref(),
+        photo_path.as_os_str(),
+        "--mask".as_ref(),
+        mask_path.as_os_str(),
+        "--out".as_ref(),
+        dir.as_os_str(),
+        "--times".as_ref(),
+        "0,50,100,200".as_ref(),
+        "--seed".as_ref(),
+        seed.as_ref(),
+    ])
 }
 
 /// A procedural drying-wood material (64 x 64, 11 time steps) fitted with

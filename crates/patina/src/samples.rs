@@ -339,3 +339,49 @@ pub fn rough_stone(width: usize, height: usize, seed: u64) -> Image {
         p[0] = (0.55 + 0.2 * relief + 0.15 * grain - 1.5 * pit).clamp(0.0, 1.0);
     })
 }
+
+/// A photographed stele (RGB) and its object mask: a round-topped granite
+/// slab, lit from the top left, with rows of carved letter-like grooves and
+/// fine grain, standing in front of mottled foliage. The demo's input for
+/// `patina stone`.
+pub fn carved_stele(width: usize, height: usize, seed: u64) -> (Image, Mask) {
+    let (w, h) = (width as f32, height as f32);
+    let (cx, half, top) = (w / 2.0, w * 0.3, h * 0.12);
+    let inside = |x: f32, y: f32| {
+        let dx = (x - cx) / half;
+        (x - cx).abs() < half && y < h * 0.95 && y > top + half * (1.0 - (1.0 - dx * dx).max(0.0).sqrt()) * 0.9
+    };
+    let mask = Mask::from_fn(width, height, |x, y| inside(x as f32 + 0.5, y as f32 + 0.5));
+    let groove = |r: f32| 0.22 * (-((r - 2.5) / 1.4).powi(2)).exp() - 0.2 * (-((r - 5.5) / 1.6).powi(2)).exp();
+    let image = Image::from_fn(width, height, 3, |x, y, p| {
+        let (fx, fy) = (x as f32, y as f32);
+        if mask.get(x, y) {
+            let grain = 0.1 * (lattice(seed ^ 0x6a, x as i64, y as i64) - 0.5);
+            let mottle = 0.12 * (fractal_noise(seed ^ 0x3c, fx, fy, 24.0, 3) - 0.5);
+            // Letters: a row of 14 x 18 px cells, each a random subset of
+            // strokes (bars and a diagonal), in rows over the slab's middle.
+            let (u, v) = (fx - (cx - half * 0.75), fy - (top + half));
+            let mut carve = 0.0;
+            if u >= 0.0 && v >= 0.0 && u < half * 1.5 && (v % 30.0) < 20.0 && v < h * 0.55 {
+                let (cell_x, cell_y) = ((u / 16.0) as i64, (v / 30.0) as i64);
+                let strokes = rng::derive(seed, &[cell_x as u64, cell_y as u64, 7]);
+                let (lx, ly) = (u % 16.0, v % 30.0);
+                let bars = [(strokes & 1 != 0, lx), (strokes & 2 != 0, lx - 8.0), (strokes & 4 != 0, ly), (strokes & 8 != 0, ly - 12.0)];
+                for (on, r) in bars {
+                    if on && lx < 12.0 && ly < 18.0 {
+                        carve += groove(r + 1.0);
+                    }
+                }
+                if strokes & 16 != 0 && lx < 12.0 && ly < 18.0 {
+                    carve += groove(lx - ly * 0.66 + 1.0);
+                }
+            }
+            let v = (0.5 + mottle + grain + carve).clamp(0.0, 1.0);
+            p.copy_from_slice(&[v * 0.98, v * 0.96, v * 0.93]);
+        } else {
+            let m = fractal_noise(seed ^ 0x91, fx, fy, 10.0, 3);
+            p.copy_from_slice(&[0.12 + 0.12 * m, 0.26 + 0.25 * m, 0.1 + 0.08 * m]);
+        }
+    });
+    (image, mask)
+}
