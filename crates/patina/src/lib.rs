@@ -10,6 +10,7 @@
 //! - [`metrics`]: quality measures shared by tests, benchmarks and the CLI.
 //! - [`samples`]: procedural textures the demo and the tests make themselves.
 
+pub mod decay;
 pub mod error;
 pub mod image;
 pub mod metrics;

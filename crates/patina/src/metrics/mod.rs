@@ -6,6 +6,10 @@
 //! patches are found with the engine's PatchMatch (many sweeps; approximate
 //! but very close to exhaustive search at these settings).
 
+mod stationarity;
+
+pub use stationarity::{stationarity, Stationarity};
+
 use crate::error::{Error, Result};
 use crate::image::{Image, Mask};
 use crate::synth::nnf::{random_nnf, SourceDomain};

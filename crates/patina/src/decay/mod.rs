@@ -1,0 +1,180 @@
+//! Natural image decay (Hao, Iizuka, Hara, Kataoka, Fukui, "Natural Image
+//! Decay With a Decay Effects Generator", IEEE Access 2023): make a clean
+//! object in a photo rust, peel, crack or grow moss, over time.
+//!
+//! The pipeline: a decay texture of the photo's size ([`texture`]), the
+//! object's shading ([`shading`]), an initial degree map ([`degree::initial`],
+//! Algorithm 1, or a user's painting), its diffusion over the frames
+//! ([`degree::step`], eqs. 4-7), and Lab compositing ([`composite`], eq. 3).
+//! [`prepare`] does the once-per-photo work, [`sequence`] renders frames.
+
+pub mod composite;
+pub mod degree;
+pub mod noise;
+pub mod shading;
+pub mod texture;
+
+pub use degree::Diffusion;
+pub use shading::ShadingParams;
+pub use texture::{DecayClass, Style};
+
+use crate::image::color::to_lab;
+use crate::image::{Image, Mask};
+use crate::synth::Progress;
+use crate::{Error, Result};
+use serde::Serialize;
+
+/// Parameters of a decay run, with the paper's defaults.
+#[derive(Clone, Debug, Serialize)]
+pub struct DecayParams {
+    /// The decay class (the generator's class label).
+    pub class: DecayClass,
+    /// Target fraction of the mask covered by the initial degree map
+    /// (Algorithm 1's area; 0.25).
+    pub area: f32,
+    /// Blob size of the initial degree map as a fraction of the longer
+    /// side (Algorithm 1's continuity; 0.06).
+    pub continuity: f32,
+    /// Diffusion and self-growth per frame.
+    pub diffusion: Diffusion,
+    /// The shading estimate.
+    pub shading: ShadingParams,
+}
+
+impl DecayParams {
+    /// The paper's defaults for `class`.
+    pub fn new(class: DecayClass) -> Self {
+        DecayParams { class, area: 0.25, continuity: 0.06, diffusion: Diffusion::default(), shading: ShadingParams::default() }
+    }
+}
+
+/// What [`sequence`] needs, computed once per photo.
+pub struct Prepared {
+    /// The photo (sRGB), and in Lab.
+    pub photo: Image,
+    photo_lab: Image,
+    /// The object mask.
+    pub mask: Mask,
+    /// The decay texture as made (sRGB + onset), before colour transfer.
+    pub texture: Image,
+    texture_lab: Image,
+    onset: Image,
+    /// Relative shading (linear luminance ratio, mean 1 in the log domain).
+    pub shading: Image,
+    /// The initial degree map (frame 0).
+    pub degree: Image,
+    /// Draws Algorithm 1 needed (0 for a painted degree map).
+    pub draws: u64,
+    /// Per-pixel rate (the user's regularisation map), if any.
+    pub rate: Option<Image>,
+    params: DecayParams,
+}
+
+/// One rendered frame.
+pub struct Frame {
+    /// The degree map D of this frame.
+    pub degree: Image,
+    /// The decayed photo.
+    pub image: Image,
+    /// Finite-difference steps taken to reach this frame from the last.
+    pub steps: usize,
+}
+
+/// The inputs of [`prepare`] besides the photo.
+#[derive(Default)]
+pub struct Inputs<'a> {
+    /// Object mask (white = may decay); default: the whole photo.
+    pub mask: Option<&'a Mask>,
+    /// A ready decay texture (sRGB + onset, the photo's size), e.g. from
+    /// [`texture::from_exemplar`]; default: the procedural generator.
+    pub texture: Option<&'a Image>,
+    /// A painted initial degree map (luminance in [0, 1]); default: Algorithm 1.
+    pub degree: Option<&'a Image>,
+    /// Spatial regularisation: luminance 0.5 = normal speed, 1 = twice, 0 = none.
+    pub rate: Option<&'a Image>,
+}
+
+/// Check sizes, make or take the texture, estimate the shading and the
+/// initial degree map.
+pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -> Result<Prepared> {
+    let (w, h) = photo.size();
+    if photo.channels() < 3 {
+        return Err(Error::invalid("decay needs a colour photo (RGB)"));
+    }
+    let same = |what: &str, (a, b): (usize, usize)| {
+        if (a, b) == (w, h) {
+            Ok(())
+        } else {
+            Err(Error::invalid(format!("the {what} is {a}x{b} but the photo is {w}x{h}")))
+        }
+    };
+    let mask = match inputs.mask {
+        Some(m) => {
+            same("mask", m.size())?;
+            m.clone()
+        }
+        None => Mask::filled(w, h, true),
+    };
+    let texture = match inputs.texture {
+        Some(t) => {
+            same("texture", t.size())?;
+            if t.channels() != texture::CHANNELS {
+                return Err(Error::invalid("a decay texture needs 4 channels (sRGB and onset)"));
+            }
+            t.clone()
+        }
+        None => texture::generate(params.class, seed, 0, 0, w, h)?,
+    };
+    let photo_lab = to_lab(photo);
+    let mut texture_lab = to_lab(&texture);
+    if params.class.takes_input_colour() {
+        composite::transfer_colour(&mut texture_lab, &photo_lab, &mask);
+    }
+    let onset = texture.select_channels(3..4);
+    let shading = shading::estimate(photo, &mask, &params.shading);
+    let (degree, draws) = match inputs.degree {
+        Some(painting) => (degree::from_painting(painting, &mask)?, 0),
+        None => degree::initial(&mask, params.area, params.continuity, seed)?,
+    };
+    let rate = match inputs.rate {
+        Some(r) => {
+            same("rate map", r.size())?;
+            let n = r.channels().min(3);
+            Some(Image::from_fn(w, h, 1, |x, y, p| p[0] = (2.0 * r.pixel(x, y)[..n].iter().sum::<f32>() / n as f32).clamp(0.0, 2.0)))
+        }
+        None => None,
+    };
+    Ok(Prepared {
+        photo: photo.clone(),
+        photo_lab,
+        mask,
+        texture,
+        texture_lab,
+        onset,
+        shading,
+        degree,
+        draws,
+        rate,
+        params: params.clone(),
+    })
+}
+
+/// Render `frames` frames: frame 0 composites the initial degree map, each
+/// later frame first runs one frame of diffusion and growth.
+pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Progress>) -> Result<Vec<Frame>> {
+    if frames == 0 {
+        return Err(Error::invalid("--frames must be at least 1"));
+    }
+    let mut degree = prep.degree.clone();
+    let mut out = Vec::with_capacity(frames);
+    for k in 0..frames {
+        let steps =
+            if k == 0 { 0 } else { degree::step(&mut degree, &prep.mask, prep.rate.as_ref(), &prep.params.diffusion, seed, k as u64) };
+        let image = composite::composite(&prep.photo, &prep.photo_lab, &prep.texture_lab, &prep.onset, &prep.shading, &degree);
+        out.push(Frame { degree: degree.clone(), image, steps });
+        if let Some(p) = progress {
+            p(k as u64 + 1, frames as u64);
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,198 @@
+//! Coordinate noise for the procedural decay textures: gradient (Perlin)
+//! noise, fractal sums of it, domain warping and cellular (Worley) noise.
+//!
+//! Every function here is a pure function of a seed and absolute pixel
+//! coordinates, with no image-level state, so a texture generated in parts
+//! has exactly the pixels of the texture generated at once (the paper's
+//! synthesis-by-part property) and nothing repeats at any size.
+
+/// The 16 unit gradients of [`Layer::perlin`], at multiples of 22.5 degrees.
+const GRADIENTS: [[f32; 2]; 16] = {
+    let mut g = [[0.0; 2]; 16];
+    // cos and sin of k * 22.5 degrees for k = 0..4; the rest by symmetry.
+    let quarter = [[1.0, 0.0], [0.923_879_5, 0.382_683_43], [0.707_106_8, 0.707_106_8], [0.382_683_43, 0.923_879_5]];
+    let mut k = 0;
+    while k < 16 {
+        let [c, s] = quarter[k % 4];
+        g[k] = match k / 4 {
+            0 => [c, s],
+            1 => [-s, c],
+            2 => [-c, -s],
+            _ => [s, -c],
+        };
+        k += 1;
+    }
+    g
+};
+
+/// One noise layer: a 32-bit seed for the lattice hash.
+#[derive(Clone, Copy, Debug)]
+pub struct Layer(u32);
+
+impl Layer {
+    /// The layer `index` of a texture with seed `seed`.
+    pub fn new(seed: u64, index: u64) -> Self {
+        Layer((crate::rng::derive(seed, &[0xdeca, index]) >> 32) as u32)
+    }
+
+    /// A well-mixed 32-bit hash of lattice point (x, y).
+    #[inline]
+    fn hash(self, x: i32, y: i32) -> u32 {
+        let mut h = self.0 ^ (x as u32).wrapping_mul(0x8da6_b343) ^ (y as u32).wrapping_mul(0xd816_3841);
+        h = (h ^ (h >> 16)).wrapping_mul(0x7feb_352d);
+        h = (h ^ (h >> 15)).wrapping_mul(0x846c_a68b);
+        h ^ (h >> 16)
+    }
+
+    /// Uniform in [0, 1) at lattice point (x, y).
+    #[inline]
+    pub fn white(self, x: i32, y: i32) -> f32 {
+        (self.hash(x, y) >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
+
+    /// Perlin gradient noise at (x, y), lattice spacing 1, in about [-1, 1]
+    /// (quintic fade, 16 unit gradient directions).
+    #[inline]
+    pub fn perlin(self, x: f32, y: f32) -> f32 {
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (ix, iy) = (x0 as i32, y0 as i32);
+        let grad = |i: i32, j: i32, dx: f32, dy: f32| {
+            let [gx, gy] = GRADIENTS[(self.hash(i, j) >> 28) as usize];
+            dx * gx + dy * gy
+        };
+        let fade = |t: f32| t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+        let (u, v) = (fade(fx), fade(fy));
+        let a = grad(ix, iy, fx, fy) + u * (grad(ix + 1, iy, fx - 1.0, fy) - grad(ix, iy, fx, fy));
+        let b = grad(ix, iy + 1, fx, fy - 1.0) + u * (grad(ix + 1, iy + 1, fx - 1.0, fy - 1.0) - grad(ix, iy + 1, fx, fy - 1.0));
+        1.41 * (a + v * (b - a))
+    }
+
+    /// Fractal Brownian motion: `octaves` octaves of Perlin noise from
+    /// wavelength `scale` pixels down, each `gain` times the amplitude of
+    /// the one before at twice the frequency, normalised to about [-1, 1].
+    /// Octaves are rotated against each other so lattice axes do not show.
+    pub fn fbm(self, x: f32, y: f32, scale: f32, octaves: usize, gain: f32) -> f32 {
+        let (mut sum, mut amp, mut norm) = (0.0, 1.0, 0.0);
+        let (mut px, mut py) = (x / scale, y / scale);
+        for o in 0..octaves {
+            let layer = Layer(self.0.wrapping_add((o as u32).wrapping_mul(0x9e37_79b9)));
+            sum += amp * layer.perlin(px, py);
+            norm += amp;
+            amp *= gain;
+            // Rotate by about 37 degrees and double.
+            (px, py) = (1.6 * px - 1.2 * py + 17.3, 1.2 * px + 1.6 * py - 9.1);
+        }
+        sum / norm
+    }
+
+    /// Domain-warped fBm (Quilez): the field sampled at a point displaced
+    /// by two more fBm fields of wavelength `scale`, times `warp` pixels.
+    /// Gives the swirled, flowing shapes of corrosion and lichen.
+    pub fn warped(self, x: f32, y: f32, scale: f32, octaves: usize, warp: f32) -> f32 {
+        let qx = Layer(self.0 ^ 0x5bd1_e995).fbm(x, y, scale, 4, 0.5);
+        let qy = Layer(self.0 ^ 0x1b87_3593).fbm(x + 5.2 * scale, y + 1.3 * scale, scale, 4, 0.5);
+        self.fbm(x + warp * qx, y + warp * qy, scale, octaves, 0.5)
+    }
+
+    /// Cellular noise over jittered cells of side `cell` pixels: distances
+    /// to the nearest and second-nearest feature point (in pixels) and a
+    /// hash of the nearest point's cell, uniform in [0, 1).
+    pub fn worley(self, x: f32, y: f32, cell: f32) -> Cellular {
+        let (cx, cy) = (x / cell, y / cell);
+        let (ix, iy) = (cx.floor() as i32, cy.floor() as i32);
+        let mut best = Cellular { f1: f32::MAX, f2: f32::MAX, id: 0.0 };
+        for j in iy - 1..=iy + 1 {
+            for i in ix - 1..=ix + 1 {
+                let h = self.hash(i, j);
+                let (jx, jy) = ((h & 0xffff) as f32 / 65536.0, (h >> 16) as f32 / 65536.0);
+                let (dx, dy) = (i as f32 + jx - cx, j as f32 + jy - cy);
+                let d = (dx * dx + dy * dy).sqrt() * cell;
+                if d < best.f1 {
+                    best = Cellular { f2: best.f1, f1: d, id: Layer(self.0 ^ 0xc2b2_ae35).white(i, j) };
+                } else if d < best.f2 {
+                    best.f2 = d;
+                }
+            }
+        }
+        best
+    }
+}
+
+/// The result of [`Layer::worley`].
+#[derive(Clone, Copy, Debug)]
+pub struct Cellular {
+    /// Distance to the nearest feature point, in pixels.
+    pub f1: f32,
+    /// Distance to the second-nearest feature point, in pixels.
+    pub f2: f32,
+    /// A hash of the nearest feature point, uniform in [0, 1).
+    pub id: f32,
+}
+
+impl Cellular {
+    /// Approximate distance to the cell border (the crack line), in pixels:
+    /// half the F2 - F1 gap.
+    pub fn border(&self) -> f32 {
+        0.5 * (self.f2 - self.f1)
+    }
+}
+
+/// Hermite smoothstep of `x` between `a` and `b`.
+#[inline]
+pub fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Linear interpolation of colours.
+#[inline]
+pub fn mix3(a: [f32; 3], b: [f32; 3], t: f32) -> [f32; 3] {
+    [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t, a[2] + (b[2] - a[2]) * t]
+}
+
+/// A colour ramp: piecewise-linear through `stops` (position, sRGB colour),
+/// positions ascending; clamped outside.
+pub fn ramp(stops: &[(f32, [f32; 3])], t: f32) -> [f32; 3] {
+    let i = stops.iter().position(|s| s.0 >= t).unwrap_or(stops.len());
+    match i {
+        0 => stops[0].1,
+        i if i == stops.len() => stops[i - 1].1,
+        i => {
+            let (a, b) = (stops[i - 1], stops[i]);
+            mix3(a.1, b.1, (t - a.0) / (b.0 - a.0).max(1e-6))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn perlin_is_zero_mean_bounded_and_seeded() {
+        let (a, b) = (Layer::new(1, 0), Layer::new(2, 0));
+        let samples: Vec<f32> = (0..10_000).map(|i| a.perlin(i as f32 * 0.37, (i / 100) as f32 * 0.41)).collect();
+        let mean = samples.iter().sum::<f32>() / samples.len() as f32;
+        assert!(mean.abs() < 0.05, "mean {mean}");
+        assert!(samples.iter().all(|v| v.abs() <= 1.05));
+        assert!(samples.iter().map(|v| v.abs()).fold(0.0f32, f32::max) > 0.6);
+        assert_ne!(a.perlin(3.3, 4.4), b.perlin(3.3, 4.4));
+        assert_eq!(a.perlin(3.3, 4.4), Layer::new(1, 0).perlin(3.3, 4.4));
+    }
+
+    #[test]
+    fn worley_distances_are_ordered_and_zero_at_feature_points() {
+        let l = Layer::new(3, 1);
+        let mut min_f1 = f32::MAX;
+        for y in 0..64 {
+            for x in 0..64 {
+                let c = l.worley(x as f32, y as f32, 16.0);
+                assert!(c.f1 <= c.f2 && c.f1 >= 0.0);
+                assert!(c.f1 <= 16.0 * 1.5, "F1 {} beyond the cell diagonal", c.f1);
+                min_f1 = min_f1.min(c.f1);
+            }
+        }
+        assert!(min_f1 < 1.0);
+    }
+}

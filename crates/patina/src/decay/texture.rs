@@ -1,0 +1,301 @@
+//! Decay textures (Hao et al. 2023, section III-B): class-controlled,
+//! diverse across seeds, any size, stationary.
+//!
+//! The paper trains a GAN (the decay effects generator). patina ships no
+//! learned weights, so each class is a procedural generator built from the
+//! coordinate noise of [`super::noise`], with a few style parameters drawn
+//! from the seed ([`Style`]); or, in exemplar mode, any decay photo is
+//! synthesized to size by the engine ([`from_exemplar`]).
+//!
+//! A texture has four channels: sRGB colour and an *onset*, the degree of
+//! decay at which that texel appears (see [`super::composite`]): rust
+//! appears first in its deepest pits, cracks before the crazed paint
+//! between them, moss at the heart of each clump, paint flakes one flake at
+//! a time.
+
+use super::noise::{mix3, ramp, smoothstep, Layer};
+use crate::image::Image;
+use crate::synth::{OptimizeParams, Synthesis};
+use crate::{Error, Result};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Channels of a decay texture: sRGB colour, then the onset degree.
+pub const CHANNELS: usize = 4;
+
+/// The kind of decay.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DecayClass {
+    /// Corrosion: swirled layers of dark brown to orange-ochre oxide, pitted and granular.
+    Rust,
+    /// Paint flaking off in curled-edged flakes, showing weathered wood or plaster.
+    Peeling,
+    /// Crazed paint or plaster: a network of cracks (large cells split into smaller ones).
+    Cracked,
+    /// Moss: cushions of tiny bright tips over dark gaps, in clumps.
+    Mossy,
+}
+
+impl DecayClass {
+    /// Every class, in CLI order.
+    pub const ALL: [DecayClass; 4] = [DecayClass::Rust, DecayClass::Peeling, DecayClass::Cracked, DecayClass::Mossy];
+
+    /// The class's name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            DecayClass::Rust => "rust",
+            DecayClass::Peeling => "peeling",
+            DecayClass::Cracked => "cracked",
+            DecayClass::Mossy => "mossy",
+        }
+    }
+
+    /// Whether compositing first moves the texture's colours to the
+    /// photo's (Reinhard et al. 2001): decay of the object's own paint.
+    pub fn takes_input_colour(self) -> bool {
+        matches!(self, DecayClass::Peeling | DecayClass::Cracked)
+    }
+}
+
+impl std::str::FromStr for DecayClass {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        DecayClass::ALL
+            .into_iter()
+            .find(|c| c.name() == s)
+            .ok_or_else(|| Error::invalid(format!("unknown decay class '{s}' (expected rust, peeling, cracked or mossy)")))
+    }
+}
+
+/// Style parameters drawn from the seed, so seeds differ in look and not
+/// only in layout.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Style {
+    /// Feature scale multiplier, 0.75 to 1.35.
+    pub scale: f32,
+    /// A palette / character choice in [0, 1) (which paint, which
+    /// substrate, how yellow the moss).
+    pub variant: f32,
+    /// Direction of elongation (peeling follows the grain), radians.
+    pub angle: f32,
+    /// Elongation, 1 to 3.
+    pub stretch: f32,
+}
+
+impl Style {
+    /// The style of texture `seed`.
+    pub fn draw(seed: u64) -> Self {
+        let u = |i: u64| Layer::new(seed, 1000 + i).white(0, 0);
+        Style { scale: 0.75 + 0.6 * u(0), variant: u(1), angle: (u(2) - 0.5) * 0.5, stretch: 1.0 + 2.0 * u(3) }
+    }
+}
+
+/// Generate the `width` x `height` window at (`x0`, `y0`) of the infinite
+/// texture of `class` and `seed`. Every texel depends only on its absolute
+/// position, so windows of one texture tile it exactly.
+pub fn generate(class: DecayClass, seed: u64, x0: i64, y0: i64, width: usize, height: usize) -> Result<Image> {
+    crate::synth::problem::check_memory("decay texture", width, height, CHANNELS)?;
+    if width == 0 || height == 0 {
+        return Err(Error::invalid(format!("decay texture size {width}x{height} is empty")));
+    }
+    let style = Style::draw(seed);
+    let texel: fn(&Generator, f32, f32) -> [f32; 4] = match class {
+        DecayClass::Rust => rust,
+        DecayClass::Peeling => peeling,
+        DecayClass::Cracked => cracked,
+        DecayClass::Mossy => mossy,
+    };
+    let gen = Generator { seed, style };
+    let mut img = Image::new(width, height, CHANNELS);
+    img.data_mut().par_chunks_mut(width * CHANNELS).enumerate().for_each(|(y, row)| {
+        for (x, px) in row.chunks_exact_mut(CHANNELS).enumerate() {
+            let v = texel(&gen, (x0 + x as i64) as f32, (y0 + y as i64) as f32);
+            for (o, v) in px.iter_mut().zip(v) {
+                *o = v.clamp(0.0, 1.0);
+            }
+        }
+    });
+    Ok(img)
+}
+
+/// Synthesize a decay texture of `width` x `height` from a photo of decay
+/// with the engine (texture optimization: stationary and seamless). The
+/// onset channel is a smooth fBm field, so the exemplar's look spreads in
+/// ragged patches. Unlike [`generate`], windows of different sizes are not
+/// parts of one texture.
+pub fn from_exemplar(exemplar: &Image, width: usize, height: usize, seed: u64, progress: Option<crate::synth::Progress>) -> Result<Image> {
+    if exemplar.channels() < 3 {
+        return Err(Error::invalid("a decay exemplar needs colour (RGB)"));
+    }
+    let rgb = exemplar.select_channels(0..3);
+    let mut synth = Synthesis::new(&rgb).size(width, height).seed(seed);
+    if let Some(p) = progress {
+        synth = synth.progress(p);
+    }
+    let colour = synth.optimize(&OptimizeParams::default())?.image;
+    let onset = Layer::new(seed, 900);
+    let scale = (width.max(height) as f32 / 4.0).clamp(32.0, 256.0);
+    Ok(Image::from_fn(width, height, CHANNELS, |x, y, p| {
+        p[..3].copy_from_slice(colour.pixel(x, y));
+        let f = onset.fbm(x as f32, y as f32, scale, 5, 0.55);
+        p[3] = (0.45 - 0.6 * f).clamp(0.02, 0.95);
+    }))
+}
+
+/// A class's texel function and what it reads: the seed and its style.
+struct Generator {
+    seed: u64,
+    style: Style,
+}
+
+impl Generator {
+    fn layer(&self, i: u64) -> Layer {
+        Layer::new(self.seed, i)
+    }
+
+    /// (x, y) rotated by the style angle and squeezed along it by the
+    /// stretch: features elongate along the grain.
+    fn grain(&self, x: f32, y: f32) -> (f32, f32) {
+        let (s, c) = self.style.angle.sin_cos();
+        let (u, v) = (c * x + s * y, -s * x + c * y);
+        (u / self.style.stretch, v)
+    }
+}
+
+/// Rust: domain-warped layers (the swirls of corroded_rust_swirls) mapped
+/// through an oxide palette with thin dark contour lines, a flaky dark
+/// crust, bright granular blooms and pixel grain; onset lowest in the
+/// deepest corrosion, ragged at small scale.
+fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
+    let s = g.style.scale;
+    let field = g.layer(0).warped(x, y, 120.0 * s, 6, 80.0 * s);
+    let depth = (0.42 + 0.85 * field).clamp(0.0, 1.0);
+    // Growth rings: thin dark lines along the contours of the field.
+    let ring = (depth * 45.0 + 1.5 * g.layer(1).fbm(x, y, 12.0, 2, 0.5)).sin();
+    let contour = smoothstep(0.75, 0.98, ring) * smoothstep(0.25, 0.5, depth);
+    let grain = g.layer(2).white(x as i32, y as i32) - 0.5;
+    let fine = g.layer(3).fbm(x, y, 3.0, 3, 0.6);
+    let crust = smoothstep(0.1, 0.3, g.layer(4).fbm(x, y, 14.0 * s, 4, 0.6) - 0.6 * (depth - 0.5));
+    let bloom = smoothstep(0.35, 0.55, g.layer(6).fbm(x, y, 6.0 * s, 3, 0.6)) * smoothstep(0.3, 0.6, depth);
+    // Palettes from the sample photos: dark scale, red-brown, orange, ochre.
+    let red = if g.style.variant < 0.5 { [0.36, 0.12, 0.05] } else { [0.30, 0.13, 0.07] };
+    let stops = [(0.0, [0.09, 0.05, 0.03]), (0.3, red), (0.58, [0.60, 0.25, 0.08]), (0.8, [0.74, 0.42, 0.14]), (0.95, [0.84, 0.60, 0.30])];
+    let mut c = ramp(&stops, depth + 0.1 * fine);
+    c = mix3(c, [0.16, 0.08, 0.04], 0.8 * crust.max(0.6 * contour));
+    c = mix3(c, [0.82, 0.42, 0.12], 0.7 * bloom * (1.0 - crust));
+    let shade = 1.0 + 0.22 * grain + 0.1 * fine;
+    c = c.map(|v| v * shade);
+    let patches = g.layer(5).fbm(x, y, 70.0 * s, 4, 0.5);
+    let onset = 0.42 - 0.55 * patches + 0.12 * fine + 0.08 * grain - 0.1 * crust;
+    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
+}
+
+/// Peeling paint: a paint layer with flakes lifted along the grain, their
+/// curled lips lit, shadows cast down-right onto the substrate (weathered
+/// wood or plaster); each flake appears whole at its own onset.
+fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
+    let s = g.style.scale;
+    let flake_field = |x: f32, y: f32| {
+        let (u, v) = g.grain(x, y);
+        let base = g.layer(0).warped(u, v, 60.0 * s, 5, 25.0 * s);
+        let cells = g.layer(1).worley(u, v, 34.0 * s);
+        base + 0.25 * (cells.id - 0.5)
+    };
+    let threshold = 0.05;
+    let f = flake_field(x, y);
+    let flaked = smoothstep(threshold - 0.01, threshold + 0.01, f);
+    // Shadow of the lifted edge, cast towards +x +y.
+    let shadow = smoothstep(threshold - 0.01, threshold + 0.01, flake_field(x - 2.5, y - 2.5)) * (1.0 - flaked);
+    let lip = (1.0 - smoothstep(0.0, 0.035, (f - threshold).abs())) * (f < threshold) as u8 as f32;
+    let (u, v) = g.grain(x, y);
+    let grain = g.layer(2).white(x as i32, y as i32) - 0.5;
+    let substrate = if g.style.variant < 0.5 {
+        // Weathered grey-brown wood: fibres along the grain.
+        let fibre = g.layer(3).fbm(u * 0.08, v * 1.4, 6.0, 4, 0.6);
+        mix3([0.30, 0.25, 0.2], [0.55, 0.47, 0.38], 0.5 + 0.6 * fibre)
+    } else {
+        // Plaster: mottled grey-beige.
+        let m = g.layer(3).fbm(x, y, 14.0, 4, 0.6);
+        mix3([0.55, 0.52, 0.47], [0.75, 0.72, 0.66], 0.5 + 0.6 * m)
+    };
+    let paint_tone = 0.92 + 0.08 * g.layer(4).fbm(x, y, 40.0 * s, 3, 0.5) + 0.05 * grain;
+    let paint = [0.78 * paint_tone, 0.74 * paint_tone, 0.68 * paint_tone];
+    let under = substrate.map(|c| c * (1.0 + 0.12 * grain) * (1.0 - 0.45 * shadow));
+    let mut c = mix3(paint, under, flaked);
+    c = mix3(c, [1.0, 1.0, 1.0], 0.35 * lip);
+    // Flakes peel one at a time: the onset is that of the flake's cell.
+    let (u, v) = g.grain(x, y);
+    let cell = g.layer(1).worley(u, v, 34.0 * s);
+    let region = g.layer(5).fbm(x, y, 120.0 * s, 3, 0.5);
+    let onset = 0.45 - 0.45 * region + 0.35 * (cell.id - 0.5);
+    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
+}
+
+/// Cracked paint or plaster: a warped cellular crack network, large cells
+/// split by a finer network in places, crack width varying along the
+/// crack, tile edges curled up (lighter), fine grain; cracks appear before
+/// the crazed surface between them, and spread as the degree rises.
+fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
+    let s = g.style.scale;
+    let wx = x + 7.0 * s * g.layer(0).fbm(x, y, 30.0 * s, 3, 0.5);
+    let wy = y + 7.0 * s * g.layer(1).fbm(x + 91.0, y, 30.0 * s, 3, 0.5);
+    let big = g.layer(2).worley(wx, wy, 40.0 * s);
+    let small = g.layer(3).worley(wx, wy, 17.0 * s);
+    let split = smoothstep(-0.1, 0.2, g.layer(4).fbm(x, y, 90.0 * s, 3, 0.5));
+    let width = 1.1 + 0.7 * g.layer(5).fbm(x, y, 25.0, 2, 0.5);
+    let big_crack = 1.0 - smoothstep(width * 0.6, width + 0.6, big.border());
+    let small_crack = split * (1.0 - smoothstep(0.2, 0.6 + 0.3 * width, small.border()));
+    let crack = big_crack.max(small_crack);
+    let edge = big.border().min(if split > 0.5 { small.border() } else { f32::MAX });
+    let curl = smoothstep(6.0, 1.5, edge) * (1.0 - crack);
+    let grain = g.layer(6).white(x as i32, y as i32) - 0.5;
+    let mottle = g.layer(7).fbm(x, y, 12.0, 3, 0.5);
+    let tone = (0.95 + 0.08 * (big.id - 0.5) + 0.05 * mottle + 0.06 * grain) * (1.0 + 0.1 * curl);
+    let surface = if g.style.variant < 0.5 { [0.74, 0.70, 0.66] } else { [0.70, 0.67, 0.60] };
+    let c = mix3(surface.map(|c| c * tone), [0.17, 0.14, 0.12], crack);
+    let spread = g.layer(8).fbm(x, y, 100.0 * s, 3, 0.5);
+    let onset = if crack > 0.2 || edge < 2.5 { 0.25 - 0.45 * spread } else { 0.7 - 0.3 * spread };
+    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
+}
+
+/// Moss: cushions of tiny bumps (cellular noise at 3-4 px: lit yellow-green
+/// tips, dark green gaps) in clumps from warped fBm, darker where a clump
+/// thins out, over dark soil; clumps grow outward from their centres.
+fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
+    let s = g.style.scale;
+    let clump = g.layer(0).warped(x, y, 45.0 * s, 5, 20.0 * s);
+    let cover = smoothstep(-0.25, 0.05, clump);
+    // Tips of two sizes, their size varying across the cushion.
+    let (b1, b2) = (g.layer(1).worley(x, y, 3.0), g.layer(5).worley(x, y, 5.0));
+    let size = 0.8 + 0.4 * g.layer(6).fbm(x, y, 10.0, 2, 0.5);
+    let tip = smoothstep(2.2 * size, 0.2, b1.f1).max(0.8 * smoothstep(3.0 * size, 0.5, b2.f1));
+    let bump = b1;
+    let hue = g.layer(2).fbm(x, y, 60.0 * s, 3, 0.5);
+    let yellow = (0.35 * g.style.variant + 0.25 * hue).clamp(0.0, 1.0);
+    let dark = [0.10, 0.16, 0.04];
+    let mid = mix3([0.28, 0.42, 0.08], [0.42, 0.48, 0.10], yellow);
+    let light = mix3([0.55, 0.68, 0.18], [0.72, 0.74, 0.26], yellow);
+    let thick = smoothstep(-0.2, 0.4, clump);
+    let moss = ramp(&[(0.0, dark), (0.5, mid), (1.0, light)], tip * (0.55 + 0.45 * thick) + 0.1 * bump.id);
+    let soil_m = g.layer(3).fbm(x, y, 5.0, 3, 0.5);
+    let soil = [0.16 + 0.05 * soil_m, 0.14 + 0.04 * soil_m, 0.08 + 0.03 * soil_m];
+    let c = mix3(soil, moss, cover);
+    let grain = g.layer(4).white(x as i32, y as i32) - 0.5;
+    let onset = 0.5 - 0.55 * clump + 0.06 * grain;
+    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn windows_tile_the_whole_texture_exactly() {
+        for class in DecayClass::ALL {
+            let whole = generate(class, 5, 0, 0, 64, 48).unwrap();
+            let part = generate(class, 5, 20, 10, 30, 30).unwrap();
+            assert_eq!(whole.crop(20, 10, 30, 30).unwrap().data(), part.data(), "{class:?}");
+        }
+    }
+}
