@@ -1,7 +1,9 @@
 //! `patina`: the command-line tool. Argument parsing, file I/O, progress
 //! and manifests only; every algorithm lives in the `patina` library.
 
+mod decay;
 mod demo;
+mod metrics;
 mod output;
 mod progress;
 mod stbrdf;
@@ -40,6 +42,12 @@ enum Command {
     Stbrdf(stbrdf::Args),
     /// Weather the stone in a photo (Xue et al. 2011): carvings wear smooth, rough spots grow, the silhouette erodes.
     Stone(stone::Args),
+    /// Make a clean object in a photo rust, peel, crack or grow moss over time (Hao et al. 2023).
+    Decay(decay::Args),
+    /// Generate a decay texture (rust, peeling, cracked, mossy) of any size, or synthesize one from a decay photo.
+    DecayTexture(decay::TextureArgs),
+    /// Measure images (stationarity).
+    Metrics(metrics::Args),
     /// Run patina on built-in procedural samples, writing into ./patina-demo/.
     Demo(demo::Args),
 }
@@ -80,6 +88,9 @@ fn dispatch(command: Command) -> patina::Result<()> {
         Command::WeatherTransfer(a) => weather::run_transfer(a),
         Command::Ttf(a) => ttf::run(a),
         Command::Stbrdf(a) => stbrdf::run(a),
+        Command::Decay(a) => decay::run(a),
+        Command::DecayTexture(a) => decay::run_texture(a),
+        Command::Metrics(a) => metrics::run(a),
         Command::Demo(a) => demo::run(a),
     }
 }

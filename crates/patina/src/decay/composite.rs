@@ -10,7 +10,7 @@
 //! object's shading and D = 0 returns the input unchanged.
 //!
 //! The blend weight w is where patina adds to the paper: instead of the
-//! degree D itself, w = smoothstep(onset - 0.06, onset + 0.06, D) with the
+//! degree D itself, w = smoothstep(onset - 0.04, onset + 0.04, D) with the
 //! texture's per-texel onset (see [`super::texture`]). A half-decayed
 //! region then shows half of the texels fully decayed (cracks before the
 //! crazed paint between them, rust at its pits first) rather than the whole
@@ -23,7 +23,7 @@ use crate::image::{Image, Mask};
 use rayon::prelude::*;
 
 /// Half-width of the onset transition in degree units.
-const ONSET_SOFTNESS: f32 = 0.06;
+const ONSET_SOFTNESS: f32 = 0.04;
 
 /// Share of the texture's own luminance contrast kept by the colour
 /// transfer even when the photo is flatter (so cracks stay cracks on

@@ -96,7 +96,7 @@ pub struct Diffusion {
 
 impl Default for Diffusion {
     fn default() -> Self {
-        Diffusion { spread: 0.012, growth: 0.08 }
+        Diffusion { spread: 0.015, growth: 0.15 }
     }
 }
 

@@ -1,0 +1,227 @@
+//! `patina decay`, `patina decay-texture`: natural image decay (Hao et al. 2023).
+
+use crate::output::{check_outputs, manifest_path, mkdir, parse_size, refuse_overwrite, sequence_outputs, write_sequence, Manifest, Stopwatch};
+use crate::progress::with_bar;
+use patina::decay::{self, degree::Diffusion, texture, DecayClass, DecayParams, Inputs, ShadingParams};
+use patina::image::color::{linear_to_srgb, luminance};
+use patina::image::io::{self, save_png, BitDepth};
+use patina::image::{Image, Mask};
+use patina::{Error, Result};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// How long each frame of sequence.gif is shown.
+const GIF_DELAY_MS: u32 = 400;
+
+fn parse_class(s: &str) -> std::result::Result<DecayClass, String> {
+    s.parse::<DecayClass>().map_err(|e| e.to_string())
+}
+
+/// Make a clean object in a photo decay over time: rust, peeling paint,
+/// cracks or moss spread from random seed areas (or your painted map),
+/// keeping the object's shading.
+///
+/// Writes texture.png (the decay texture), texture_onset.png (the degree at
+/// which each texel appears), shading.png (the object's estimated shading),
+/// degree_NNN.png (the degree map per frame), frames/NNN.png,
+/// sequence.gif and manifest.json. Pixels outside the mask, and wherever
+/// the degree is 0, keep the photo's exact values.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Photo of the object (PNG, JPEG, 16-bit PNG or EXR; sRGB).
+    pub photo: PathBuf,
+    /// Object mask, white = may decay [default: the whole photo].
+    #[arg(long)]
+    pub mask: Option<PathBuf>,
+    /// Decay class: rust, peeling, cracked or mossy.
+    #[arg(long, value_parser = parse_class, default_value = "rust")]
+    pub class: DecayClass,
+    /// Output folder.
+    #[arg(short, long)]
+    pub out: PathBuf,
+    /// Number of frames (frame 0 shows the initial degree map).
+    #[arg(long, default_value_t = 8)]
+    pub frames: usize,
+    /// Random seed: texture, degree map and growth; the same inputs and seed give the same bytes.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Fraction of the mask the initial degree map covers (Algorithm 1; kept within +/-25%).
+    #[arg(long, default_value_t = 0.25)]
+    pub area: f32,
+    /// Blob size of the initial degree map, as a fraction of the longer side (Algorithm 1's continuity).
+    #[arg(long, default_value_t = 0.06)]
+    pub continuity: f32,
+    /// Painted initial degree map (luminance: black = intact, white = fully decayed) instead of Algorithm 1.
+    #[arg(long)]
+    pub degree: Option<PathBuf>,
+    /// Decay photo to synthesize the texture from (the engine), instead of the procedural generator for --class.
+    #[arg(long)]
+    pub exemplar: Option<PathBuf>,
+    /// Spatial regularisation map: mid-grey = normal speed, white = twice as fast, black = never spreads.
+    #[arg(long)]
+    pub rate_map: Option<PathBuf>,
+    /// Diffusion length per frame, as a fraction of the longer side (eq. 4).
+    #[arg(long, default_value_t = Diffusion::default().spread)]
+    pub spread: f32,
+    /// Self-growth per frame: Z ~ U(0, growth) added where D > 0.25 (eq. 6).
+    #[arg(long, default_value_t = Diffusion::default().growth)]
+    pub growth: f32,
+    /// Shading window radius, as a fraction of the object's longer side.
+    #[arg(long, default_value_t = ShadingParams::default().radius)]
+    pub shading_radius: f32,
+    /// Shading smoothing strength: log-luminance variance below this counts as texture, not shading.
+    #[arg(long, default_value_t = ShadingParams::default().eps)]
+    pub shading_eps: f32,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let mut manifest = Manifest::new("decay", args.seed);
+    let inputs: Vec<&Path> = [Some(args.photo.as_path()), args.mask.as_deref(), args.degree.as_deref(), args.exemplar.as_deref(), args.rate_map.as_deref()]
+        .into_iter()
+        .flatten()
+        .collect();
+    let degrees: Vec<String> = (0..args.frames).map(|i| format!("degree_{i:03}.png")).collect();
+    let mut extra = vec!["texture.png", "texture_onset.png", "shading.png"];
+    extra.extend(degrees.iter().map(String::as_str));
+    refuse_overwrite(&sequence_outputs(&args.out, args.frames, &extra), &inputs)?;
+    if args.frames == 0 || args.frames > 10_000 {
+        return Err(Error::invalid(format!("--frames must be 1 to 10000, got {}", args.frames)));
+    }
+    for (name, v) in [("--spread", args.spread), ("--growth", args.growth), ("--shading-radius", args.shading_radius), ("--shading-eps", args.shading_eps)] {
+        if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
+            return Err(Error::invalid(format!("{name} must be in [0, 1], got {v}")));
+        }
+    }
+    let params = DecayParams {
+        class: args.class,
+        area: args.area,
+        continuity: args.continuity,
+        diffusion: Diffusion { spread: args.spread, growth: args.growth },
+        shading: ShadingParams { radius: args.shading_radius, eps: args.shading_eps },
+    };
+    let photo = io::load(&args.photo)?;
+    let load_gray = |p: &Option<PathBuf>| p.as_ref().map(io::load).transpose();
+    let mask = load_gray(&args.mask)?.map(|m| Mask::from_image(&luminance(&m)));
+    let painting = load_gray(&args.degree)?;
+    let rate = load_gray(&args.rate_map)?;
+    let exemplar = load_gray(&args.exemplar)?;
+    manifest.timings_ms.insert("load".into(), clock.lap());
+
+    let synthesized = match &exemplar {
+        Some(ex) => Some(with_bar("texture", |report| texture::from_exemplar(ex, photo.width(), photo.height(), args.seed, Some(report)))?),
+        None => None,
+    };
+    let inputs_lib = Inputs { mask: mask.as_ref(), texture: synthesized.as_ref(), degree: painting.as_ref(), rate: rate.as_ref() };
+    let prepared = decay::prepare(&photo, inputs_lib, &params, args.seed)?;
+    manifest.timings_ms.insert("prepare".into(), clock.lap());
+    let frames = with_bar("decay", |report| decay::sequence(&prepared, args.frames, args.seed, Some(report)))?;
+    manifest.timings_ms.insert("frames".into(), clock.lap());
+
+    mkdir(&args.out)?;
+    save_png(&prepared.texture.select_channels(0..3), args.out.join("texture.png"), BitDepth::Eight)?;
+    save_png(&prepared.texture.select_channels(3..4), args.out.join("texture_onset.png"), BitDepth::Eight)?;
+    save_png(&shading_preview(&prepared.shading, &prepared.mask), args.out.join("shading.png"), BitDepth::Eight)?;
+    manifest.outputs.extend(["texture.png".into(), "texture_onset.png".into(), "shading.png".into()]);
+    for (f, name) in frames.iter().zip(&degrees) {
+        save_png(&f.degree, args.out.join(name), BitDepth::Sixteen)?;
+        manifest.outputs.push(name.into());
+    }
+    let timed: Vec<(f32, &Image)> = frames.iter().enumerate().map(|(i, f)| (i as f32, &f.image)).collect();
+    write_sequence(&args.out, &timed, GIF_DELAY_MS, &mut manifest)?;
+    manifest.timings_ms.insert("save".into(), clock.lap());
+
+    let mut p = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
+    p["frames"] = json!(args.frames);
+    p["texture_source"] = json!(if exemplar.is_some() { "exemplar" } else { "procedural" });
+    if exemplar.is_none() {
+        p["style"] = json!(decay::Style::draw(args.seed));
+    }
+    p["degree_source"] = json!(if painting.is_some() { "painting" } else { "algorithm1" });
+    manifest.params = p;
+    let inside = prepared.mask.count().max(1) as f64;
+    let covered: Vec<f64> = frames.iter().map(|f| f.degree.data().iter().filter(|&&d| d > 0.0).count() as f64 / inside).collect();
+    manifest.metrics.insert("covered_fraction".into(), json!(covered));
+    manifest.metrics.insert("algorithm1_draws".into(), json!(prepared.draws));
+    manifest.metrics.insert("diffusion_steps".into(), json!(frames.iter().map(|f| f.steps).collect::<Vec<_>>()));
+    manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
+    manifest.write(&args.out.join("manifest.json"))?;
+    println!("patina decay: {} frames of {} in {}", frames.len(), args.class.name(), args.out.display());
+    Ok(())
+}
+
+/// The relative shading for viewing: S / 2 in sRGB (the mean shading is
+/// mid-grey), black outside the object.
+fn shading_preview(shading: &Image, mask: &Mask) -> Image {
+    Image::from_fn(shading.width(), shading.height(), 1, |x, y, p| {
+        p[0] = if mask.get(x, y) { linear_to_srgb((0.5 * shading.at(x, y, 0)).min(1.0)) } else { 0.0 };
+    })
+}
+
+/// Generate a decay texture of any size: procedural for a class, or
+/// synthesized from a decay photo. Windows of one procedural texture
+/// (--offset) tile it exactly: generating in parts gives the same pixels as
+/// generating at once. OUT.manifest.json is written beside OUT.
+#[derive(clap::Args)]
+pub struct TextureArgs {
+    /// Decay class: rust, peeling, cracked or mossy.
+    #[arg(long, value_parser = parse_class, default_value = "rust")]
+    pub class: DecayClass,
+    /// Texture size WIDTHxHEIGHT.
+    #[arg(long, value_parser = parse_size, default_value = "1024x1024")]
+    pub size: (usize, usize),
+    /// Top-left corner X,Y of the window to generate, in the infinite procedural texture.
+    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = [0i64, 0])]
+    pub offset: Vec<i64>,
+    /// Random seed: layout and style (palette, scale, grain direction).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Decay photo to synthesize from with the engine, instead of the procedural generator.
+    #[arg(long)]
+    pub exemplar: Option<PathBuf>,
+    /// Also write the onset channel (the degree at which each texel appears) here.
+    #[arg(long)]
+    pub onset: Option<PathBuf>,
+    /// Output image (.png or .exr).
+    #[arg(short, long)]
+    pub out: PathBuf,
+}
+
+pub fn run_texture(args: TextureArgs) -> Result<()> {
+    let mut clock = Stopwatch::start();
+    let mut manifest = Manifest::new("decay-texture", args.seed);
+    let manifest_file = manifest_path(&args.out);
+    let inputs: Vec<&Path> = args.exemplar.iter().map(PathBuf::as_path).collect();
+    let mut outputs = vec![args.out.as_path(), manifest_file.as_path()];
+    outputs.extend(args.onset.as_deref());
+    check_outputs(&outputs, &inputs)?;
+    io::output_format(&args.out, 3)?;
+    let (w, h) = args.size;
+    let texture = match &args.exemplar {
+        Some(path) => {
+            if args.offset != [0, 0] {
+                return Err(Error::invalid("--offset applies to procedural textures, not to --exemplar"));
+            }
+            let ex = io::load(path)?;
+            with_bar("texture", |report| texture::from_exemplar(&ex, w, h, args.seed, Some(report)))?
+        }
+        None => texture::generate(args.class, args.seed, args.offset[0], args.offset[1], w, h)?,
+    };
+    manifest.timings_ms.insert("generate".into(), clock.lap());
+    io::save(&texture.select_channels(0..3), &args.out, BitDepth::Eight)?;
+    if let Some(onset) = &args.onset {
+        io::save(&texture.select_channels(3..4), onset, BitDepth::Eight)?;
+        manifest.outputs.push(onset.clone());
+    }
+    manifest.timings_ms.insert("save".into(), clock.lap());
+    manifest.params = json!({
+        "class": args.class,
+        "size": [w, h],
+        "offset": args.offset,
+        "source": if args.exemplar.is_some() { "exemplar" } else { "procedural" },
+        "style": decay::Style::draw(args.seed),
+    });
+    manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
+    manifest.outputs.insert(0, args.out.clone());
+    manifest.write(&manifest_file)
+}
