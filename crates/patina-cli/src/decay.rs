@@ -1,6 +1,8 @@
 //! `patina decay`, `patina decay-texture`: natural image decay (Hao et al. 2023).
 
-use crate::output::{check_outputs, manifest_path, mkdir, parse_size, refuse_overwrite, sequence_outputs, write_sequence, Manifest, Stopwatch};
+use crate::output::{
+    check_outputs, manifest_path, mkdir, parse_size, refuse_overwrite, sequence_outputs, write_sequence, Manifest, Stopwatch,
+};
 use crate::progress::with_bar;
 use patina::decay::{self, degree::Diffusion, texture, DecayClass, DecayParams, Inputs, ShadingParams};
 use patina::image::color::{linear_to_srgb, luminance};
@@ -77,10 +79,11 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("decay", args.seed);
-    let inputs: Vec<&Path> = [Some(args.photo.as_path()), args.mask.as_deref(), args.degree.as_deref(), args.exemplar.as_deref(), args.rate_map.as_deref()]
-        .into_iter()
-        .flatten()
-        .collect();
+    let inputs: Vec<&Path> =
+        [Some(args.photo.as_path()), args.mask.as_deref(), args.degree.as_deref(), args.exemplar.as_deref(), args.rate_map.as_deref()]
+            .into_iter()
+            .flatten()
+            .collect();
     let degrees: Vec<String> = (0..args.frames).map(|i| format!("degree_{i:03}.png")).collect();
     let mut extra = vec!["texture.png", "texture_onset.png", "shading.png"];
     extra.extend(degrees.iter().map(String::as_str));
@@ -88,7 +91,12 @@ pub fn run(args: Args) -> Result<()> {
     if args.frames == 0 || args.frames > 10_000 {
         return Err(Error::invalid(format!("--frames must be 1 to 10000, got {}", args.frames)));
     }
-    for (name, v) in [("--spread", args.spread), ("--growth", args.growth), ("--shading-radius", args.shading_radius), ("--shading-eps", args.shading_eps)] {
+    for (name, v) in [
+        ("--spread", args.spread),
+        ("--growth", args.growth),
+        ("--shading-radius", args.shading_radius),
+        ("--shading-eps", args.shading_eps),
+    ] {
         if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
             return Err(Error::invalid(format!("{name} must be in [0, 1], got {v}")));
         }

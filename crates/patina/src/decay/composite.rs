@@ -30,10 +30,11 @@ const ONSET_SOFTNESS: f32 = 0.04;
 /// uniform paint).
 const MIN_CONTRAST: f32 = 0.7;
 
-/// The blend weight of a texel with onset `onset` at degree `degree`.
+/// The blend weight of a texel with onset `onset` at degree `degree`
+/// (0 for texels that never appear).
 #[inline]
 pub fn weight(degree: f32, onset: f32) -> f32 {
-    if degree <= 0.0 {
+    if degree <= 0.0 || onset >= super::texture::NEVER {
         return 0.0;
     }
     smoothstep((onset - ONSET_SOFTNESS).max(0.0), onset + ONSET_SOFTNESS, degree)
@@ -43,8 +44,9 @@ pub fn weight(degree: f32, onset: f32) -> f32 {
 /// paper works in l-alpha-beta; Lab is as decorrelated for this purpose):
 /// per channel, move the texture's mean and standard deviation to those
 /// of the photo inside the mask. The luminance contrast is scaled by at
-/// least 0.7, so a flat-painted object still shows its cracks.
-pub fn transfer_colour(texture_lab: &mut Image, photo_lab: &Image, mask: &Mask) {
+/// least 0.7, so a flat-painted object still shows its cracks. `strength`
+/// blends between the texture's own colours (0) and the full transfer (1).
+pub fn transfer_colour(texture_lab: &mut Image, photo_lab: &Image, mask: &Mask, strength: f32) {
     let stats = |img: &Image, keep: &dyn Fn(usize) -> bool| {
         let mut acc = [[0f64; 2]; 3];
         let mut n = 0f64;
@@ -76,7 +78,8 @@ pub fn transfer_colour(texture_lab: &mut Image, photo_lab: &Image, mask: &Mask) 
         .collect();
     texture_lab.data_mut().par_chunks_mut(3).for_each(|px| {
         for c in 0..3 {
-            px[c] = (px[c] - from[c].0) * scale[c] + to[c].0;
+            let moved = (px[c] - from[c].0) * scale[c] + to[c].0;
+            px[c] += strength * (moved - px[c]);
         }
         px[0] = px[0].clamp(0.0, 100.0);
     });

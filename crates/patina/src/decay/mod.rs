@@ -127,8 +127,9 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     };
     let photo_lab = to_lab(photo);
     let mut texture_lab = to_lab(&texture);
-    if params.class.takes_input_colour() {
-        composite::transfer_colour(&mut texture_lab, &photo_lab, &mask);
+    let strength = params.class.colour_transfer();
+    if strength > 0.0 {
+        composite::transfer_colour(&mut texture_lab, &photo_lab, &mask, strength);
     }
     let onset = texture.select_channels(3..4);
     let shading = shading::estimate(photo, &mask, &params.shading);

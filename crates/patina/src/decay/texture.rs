@@ -23,6 +23,9 @@ use serde::{Deserialize, Serialize};
 /// Channels of a decay texture: sRGB colour, then the onset degree.
 pub const CHANNELS: usize = 4;
 
+/// The onset of texels that never appear (peeling's intact paint).
+pub const NEVER: f32 = 1.0;
+
 /// The kind of decay.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -51,10 +54,18 @@ impl DecayClass {
         }
     }
 
-    /// Whether compositing first moves the texture's colours to the
-    /// photo's (Reinhard et al. 2001): decay of the object's own paint.
-    pub fn takes_input_colour(self) -> bool {
-        matches!(self, DecayClass::Peeling | DecayClass::Cracked)
+    /// How far compositing first moves the texture's colours to the
+    /// photo's (Reinhard et al. 2001), from 0 (not at all) to 1. The paper
+    /// transfers for peeling and cracked, the decay of the object's own
+    /// paint. Peeling's visible texels are the substrate under the paint
+    /// (its paint texels never show), a different material that only takes
+    /// a stain from the paint, so it gets half.
+    pub fn colour_transfer(self) -> f32 {
+        match self {
+            DecayClass::Cracked => 1.0,
+            DecayClass::Peeling => 0.5,
+            DecayClass::Rust | DecayClass::Mossy => 0.0,
+        }
     }
 }
 
@@ -169,7 +180,7 @@ impl Generator {
 /// deepest corrosion, ragged at small scale.
 fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
-    let field = g.layer(0).warped(x, y, 120.0 * s, 6, 80.0 * s);
+    let field = g.layer(0).warped(x, y, 80.0 * s, 6, 55.0 * s);
     let depth = (0.42 + 0.85 * field).clamp(0.0, 1.0);
     // Growth rings: thin dark lines along the contours of the field.
     let ring = (depth * 45.0 + 1.5 * g.layer(1).fbm(x, y, 12.0, 2, 0.5)).sin();
@@ -224,12 +235,13 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let under = substrate.map(|c| c * (1.0 + 0.12 * grain) * (1.0 - 0.45 * shadow));
     let mut c = mix3(paint, under, flaked);
     c = mix3(c, [1.0, 1.0, 1.0], 0.35 * lip);
-    // Flakes peel one at a time: the onset is that of the flake's cell.
+    // Flakes peel one at a time: the onset is that of the flake's cell. The
+    // paint between flakes never appears: it is the photo's own paint.
     let (u, v) = g.grain(x, y);
     let cell = g.layer(1).worley(u, v, 34.0 * s);
     let region = g.layer(5).fbm(x, y, 120.0 * s, 3, 0.5);
-    let onset = 0.45 - 0.45 * region + 0.35 * (cell.id - 0.5);
-    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
+    let onset = if flaked > 0.5 || lip > 0.05 { (0.45 - 0.45 * region + 0.35 * (cell.id - 0.5)).clamp(0.02, 0.95) } else { NEVER };
+    [c[0], c[1], c[2], onset]
 }
 
 /// Cracked paint or plaster: a warped cellular crack network, large cells
