@@ -15,6 +15,13 @@ use std::path::{Path, PathBuf};
 /// How long each frame of sequence.gif is shown.
 const GIF_DELAY_MS: u32 = 400;
 
+/// Parse `X,Y` (integers, may be negative).
+fn parse_offset(s: &str) -> std::result::Result<(i64, i64), String> {
+    let bad = || format!("'{s}' is not X,Y (e.g. 1024,0)");
+    let (x, y) = s.split_once(',').ok_or_else(bad)?;
+    Ok((x.trim().parse().map_err(|_| bad())?, y.trim().parse().map_err(|_| bad())?))
+}
+
 fn parse_class(s: &str) -> std::result::Result<DecayClass, String> {
     s.parse::<DecayClass>().map_err(|e| e.to_string())
 }
@@ -179,8 +186,8 @@ pub struct TextureArgs {
     #[arg(long, value_parser = parse_size, default_value = "1024x1024")]
     pub size: (usize, usize),
     /// Top-left corner X,Y of the window to generate, in the infinite procedural texture.
-    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = [0i64, 0])]
-    pub offset: Vec<i64>,
+    #[arg(long, value_parser = parse_offset, default_value = "0,0")]
+    pub offset: (i64, i64),
     /// Random seed: layout and style (palette, scale, grain direction).
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -207,13 +214,13 @@ pub fn run_texture(args: TextureArgs) -> Result<()> {
     let (w, h) = args.size;
     let texture = match &args.exemplar {
         Some(path) => {
-            if args.offset != [0, 0] {
+            if args.offset != (0, 0) {
                 return Err(Error::invalid("--offset applies to procedural textures, not to --exemplar"));
             }
             let ex = io::load(path)?;
             with_bar("texture", |report| texture::from_exemplar(&ex, w, h, args.seed, Some(report)))?
         }
-        None => texture::generate(args.class, args.seed, args.offset[0], args.offset[1], w, h)?,
+        None => texture::generate(args.class, args.seed, args.offset.0, args.offset.1, w, h)?,
     };
     manifest.timings_ms.insert("generate".into(), clock.lap());
     io::save(&texture.select_channels(0..3), &args.out, BitDepth::Eight)?;
@@ -225,7 +232,7 @@ pub fn run_texture(args: TextureArgs) -> Result<()> {
     manifest.params = json!({
         "class": args.class,
         "size": [w, h],
-        "offset": args.offset,
+        "offset": [args.offset.0, args.offset.1],
         "source": if args.exemplar.is_some() { "exemplar" } else { "procedural" },
         "style": decay::Style::draw(args.seed),
     });

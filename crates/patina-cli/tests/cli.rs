@@ -410,3 +410,69 @@ fn stone_writes_frames_masks_and_is_the_same_on_any_thread_count() {
     save_png(&patina::Image::new(40, 40, 1), dir.join("small.png"), BitDepth::Eight).unwrap();
     fails_cleanly(&dir, &["stone", s(&img), "--mask", s(&dir.join("small.png")), "-o", s(&dir.join("c"))], "mask");
 }
+
+#[test]
+fn decay_writes_every_output_and_is_the_same_on_any_thread_count() {
+    let dir = scratch("decay");
+    let (w, h) = (96, 80);
+    let body = patina::Mask::from_fn(w, h, |x, y| (20..76).contains(&x) && (10..70).contains(&y));
+    let photo = patina::Image::from_fn(w, h, 3, |x, y, p| {
+        let v = if body.get(x, y) { 0.4 + 0.4 * (x as f32 / w as f32) } else { 0.5 };
+        p.copy_from_slice(&[v, v * 0.5, v * 0.2]);
+    });
+    let (img, mask) = (dir.join("photo.png"), dir.join("mask.png"));
+    save_png(&photo, &img, BitDepth::Eight).unwrap();
+    save_png(&body.to_image(), &mask, BitDepth::Eight).unwrap();
+    let run = |out: &Path, threads: usize| {
+        let r = patina(&["decay", s(&img), "--mask", s(&mask), "--class", "cracked", "-o", s(out), "--frames", "4", "--seed", "9"], Some(threads));
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    };
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    run(&a, 1);
+    run(&b, 2);
+    for name in ["texture.png", "texture_onset.png", "shading.png", "degree_000.png", "degree_003.png", "frames/003.png", "sequence.gif"] {
+        assert_eq!(std::fs::read(a.join(name)).unwrap(), std::fs::read(b.join(name)).unwrap(), "{name} differs between 1 and 2 threads");
+    }
+    let manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(a.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["frames"].as_array().unwrap().len(), 4);
+    assert_eq!(manifest["params"]["class"], "cracked");
+    let covered = manifest["metrics"]["covered_fraction"].as_array().unwrap();
+    assert!(covered.windows(2).all(|p| p[1].as_f64() >= p[0].as_f64()), "{covered:?}");
+    // Outside the mask every frame keeps the photo's bytes.
+    let (first, last) = (load(a.join("frames/000.png")).unwrap(), load(a.join("frames/003.png")).unwrap());
+    let input = load(&img).unwrap();
+    for frame in [&first, &last] {
+        for (i, &m) in body.bits().iter().enumerate() {
+            if !m {
+                assert_eq!(frame.pixel(i % w, i / w), input.pixel(i % w, i / w));
+            }
+        }
+    }
+    fails_cleanly(&dir, &["decay", s(&img), "--class", "rot", "-o", s(&dir.join("c"))], "rot");
+    fails_cleanly(&dir, &["decay", s(&img), "--frames", "0", "-o", s(&dir.join("c"))], "frames");
+    fails_cleanly(&dir, &["decay", s(&img), "--area", "1.5", "-o", s(&dir.join("c"))], "area");
+    save_png(&patina::Image::new(40, 40, 1), dir.join("small.png"), BitDepth::Eight).unwrap();
+    fails_cleanly(&dir, &["decay", s(&img), "--mask", s(&dir.join("small.png")), "-o", s(&dir.join("c"))], "mask");
+    fails_cleanly(&dir, &["decay", s(&dir.join("missing.jpg")), "-o", s(&dir.join("c"))], "missing.jpg");
+}
+
+#[test]
+fn decay_texture_windows_tile_the_whole_and_stationarity_reads_it() {
+    let dir = scratch("decay-texture");
+    let whole = dir.join("whole.png");
+    let r = patina(&["decay-texture", "--class", "mossy", "--size", "96x64", "--seed", "3", "-o", s(&whole)], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let part = dir.join("part.png");
+    let r = patina(&["decay-texture", "--class", "mossy", "--size", "40x30", "--offset", "50,20", "--seed", "3", "-o", s(&part)], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let (whole_img, part_img) = (load(&whole).unwrap(), load(&part).unwrap());
+    assert_eq!(whole_img.crop(50, 20, 40, 30).unwrap().data(), part_img.data());
+    assert!(dir.join("whole.png.manifest.json").exists());
+    let r = patina(&["metrics", "stationarity", s(&whole), "--pairs", "8"], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    assert!(v["mean"].as_f64().unwrap() > 0.0 && v["pairs"] == 8);
+    fails_cleanly(&dir, &["decay-texture", "--class", "rust", "--size", "0x10", "-o", s(&dir.join("t.png"))], "size");
+    fails_cleanly(&dir, &["decay-texture", "--exemplar", s(&whole), "--size", "64x64", "-o", s(&whole)], "overwrite");
+    fails_cleanly(&dir, &["decay-texture", "--offset", "3", "-o", s(&dir.join("t.png"))], "x,y");
+}

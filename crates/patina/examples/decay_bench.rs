@@ -1,0 +1,100 @@
+//! Natural image decay benchmark (Hao et al. 2023): prints tables.
+//!
+//!     cargo run --release -p patina --example decay_bench [PHOTO MASK]
+//!
+//! 1. A 2048 x 2048 decay texture per class (procedural generator).
+//! 2. Stationarity (eq. 10, fixed filter bank) at 256, 1024 and 2048: with
+//!    fixed 64 x 64 crops (mean of 4 / 2 / 1 seeds) and with the paper's
+//!    quarter-size crops (seed 1).
+//! 3. `decay` on a 1-megapixel photo (1152 x 868: a procedural painted
+//!    cylinder, or PHOTO with MASK resized to it) with 8 frames, per class:
+//!    texture, shading, Algorithm 1 (prepare), then diffusion and
+//!    compositing per frame.
+
+mod common;
+
+use common::peak_rss_mib;
+use patina::decay::{self, texture, DecayClass, DecayParams, Inputs};
+use patina::image::color::linear_to_srgb;
+use patina::image::resample::{resize, Filter};
+use patina::image::{io, Image, Mask};
+use patina::metrics::stationarity;
+use std::time::Instant;
+
+const W: usize = 1152;
+const H: usize = 868;
+
+fn procedural() -> (Image, Mask) {
+    let mask = Mask::from_fn(W, H, |x, y| (300..850).contains(&x) && (80..820).contains(&y));
+    let img = Image::from_fn(W, H, 3, |x, y, p| {
+        if mask.get(x, y) {
+            let u = (x as f32 - 300.0) / 550.0 * std::f32::consts::PI;
+            let shade = 0.2 + 0.8 * (u - 0.3).sin().max(0.0);
+            p.copy_from_slice(&[0.8, 0.3, 0.06].map(|a: f32| linear_to_srgb(a * shade)));
+        } else {
+            p.fill(0.4 + 0.2 * patina::samples::value_noise(3, x as f32 / 9.0, y as f32 / 9.0));
+        }
+    });
+    (img, mask)
+}
+
+fn main() {
+    println!("| class | 2048x2048 texture |");
+    println!("|---|---:|");
+    for class in DecayClass::ALL {
+        let t = Instant::now();
+        let tex = texture::generate(class, 1, 0, 0, 2048, 2048).expect("texture");
+        println!("| {} | {:.2} s |", class.name(), t.elapsed().as_secs_f64());
+        drop(tex);
+    }
+    println!("| peak memory so far | {:.0} MiB |\n", peak_rss_mib());
+
+    println!("| class | 256 (64 px crops) | 1024 | 2048 | max/min | 256 (1/4 crops) | 1024 | 2048 |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    for class in DecayClass::ALL {
+        let rgb = |n, seed| texture::generate(class, seed, 0, 0, n, n).expect("texture").select_channels(0..3);
+        let fixed: Vec<f64> = [(256, 4u64), (1024, 2), (2048, 1)]
+            .iter()
+            .map(|&(n, seeds)| (1..=seeds).map(|s| stationarity(&rgb(n, s), Some((64, 64)), 64, 0).expect("metric").mean).sum::<f64>() / seeds as f64)
+            .collect();
+        let quarter: Vec<f64> = [256, 1024, 2048].iter().map(|&n| stationarity(&rgb(n, 1), None, 64, 0).expect("metric").mean).collect();
+        let ratio = fixed.iter().cloned().fold(0.0, f64::max) / fixed.iter().cloned().fold(f64::MAX, f64::min);
+        println!(
+            "| {} | {:.3} | {:.3} | {:.3} | {ratio:.2} | {:.3} | {:.3} | {:.3} |",
+            class.name(),
+            fixed[0],
+            fixed[1],
+            fixed[2],
+            quarter[0],
+            quarter[1],
+            quarter[2]
+        );
+    }
+    println!();
+
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (photo, mask, name) = match args.as_slice() {
+        [photo, mask] => {
+            let p = resize(&io::load(photo).expect("photo"), W, H, Filter::Cubic).expect("resize");
+            let m = resize(&io::load(mask).expect("mask"), W, H, Filter::Linear).expect("resize");
+            (p, Mask::from_image(&m), photo.clone())
+        }
+        _ => {
+            let (p, m) = procedural();
+            (p, m, "procedural cylinder".into())
+        }
+    };
+    println!("| {name}, {W}x{H} ({:.2} MP), 8 frames | prepare | 8 frames | total |", (W * H) as f64 / 1e6);
+    println!("|---|---:|---:|---:|");
+    for class in DecayClass::ALL {
+        let t = Instant::now();
+        let prep = decay::prepare(&photo, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(class), 1).expect("prepare");
+        let prepare_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let frames = decay::sequence(&prep, 8, 1, None).expect("sequence");
+        let frames_s = t.elapsed().as_secs_f64();
+        assert_eq!(frames.len(), 8);
+        println!("| {} | {prepare_s:.2} s | {frames_s:.2} s | {:.2} s |", class.name(), prepare_s + frames_s);
+    }
+    println!("| peak memory | {:.0} MiB |", peak_rss_mib());
+}
