@@ -155,13 +155,15 @@ pub fn run(args: Args) -> Result<()> {
     p["degree_source"] = json!(if painting.is_some() { "painting" } else { "algorithm1" });
     manifest.params = p;
     let inside = prepared.mask.count().max(1) as f64;
-    let covered: Vec<f64> = frames.iter().map(|f| f.degree.data().iter().filter(|&&d| d > 0.0).count() as f64 / inside).collect();
-    manifest.metrics.insert("covered_fraction".into(), json!(covered));
+    // Share of the object past the paper's self-growth threshold (D > 0.25).
+    let decayed = |f: &decay::Frame| f.degree.data().iter().filter(|&&d| d > decay::degree::GROWTH_THRESHOLD).count() as f64 / inside;
+    manifest.metrics.insert("decayed_fraction".into(), json!(frames.iter().map(decayed).collect::<Vec<_>>()));
     manifest.metrics.insert("algorithm1_draws".into(), json!(prepared.draws));
     manifest.metrics.insert("diffusion_steps".into(), json!(frames.iter().map(|f| f.steps).collect::<Vec<_>>()));
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.write(&args.out.join("manifest.json"))?;
-    println!("patina decay: {} frames of {} in {}", frames.len(), args.class.name(), args.out.display());
+    let source = if exemplar.is_some() { "the exemplar's decay" } else { args.class.name() };
+    println!("patina decay: {} frames of {source} in {}", frames.len(), args.out.display());
     Ok(())
 }
 

@@ -66,31 +66,36 @@ pub fn run(args: Args) -> Result<()> {
     weather_demo(&args)?;
     ttf_demo(&args)?;
     stbrdf_demo(&args)?;
-    stone_demo(&args)
+    stone_demo(&args)?;
+    decay_demo(&args)
 }
 
-/// A procedural carved stele (256 x 320) and its mask, weathered at the
-/// default times into OUT/stone/ like `patina stone`.
+/// A procedural painted post (256 x 320) and its mask, rusting over 8
+/// frames into OUT/decay/ like `patina decay`.
+fn decay_demo(args: &Args) -> Result<()> {
+    photo_demo(args, "decay", samples::painted_post(256, 320, args.seed), &["--class", "rust"])
+}
+
+/// A procedural carved stele (256 x 320) and its mask, weathered into
+/// OUT/stone/ like `patina stone`.
 fn stone_demo(args: &Args) -> Result<()> {
-    let dir = args.out.join("stone");
+    photo_demo(args, "stone", samples::carved_stele(256, 320, args.seed), &["--times", "0,50,100,200"])
+}
+
+/// Write a procedural photo and its mask into OUT/COMMAND/ and run
+/// `patina COMMAND input.png --mask input_mask.png --out OUT/COMMAND --seed S`
+/// with `extra` flags.
+fn photo_demo(args: &Args, command: &str, (photo, mask): (patina::Image, patina::Mask), extra: &[&str]) -> Result<()> {
+    let dir = args.out.join(command);
     mkdir(&dir)?;
-    let (photo, mask) = samples::carved_stele(256, 320, args.seed);
     let (photo_path, mask_path) = (dir.join("input.png"), dir.join("input_mask.png"));
     save_png(&photo, &photo_path, BitDepth::Eight)?;
     save_png(&mask.to_image(), &mask_path, BitDepth::Eight)?;
     let seed = args.seed.to_string();
-    run_command(&[
-        "stone".as_ref(),
-        photo_path.as_os_str(),
-        "--mask".as_ref(),
-        mask_path.as_os_str(),
-        "--out".as_ref(),
-        dir.as_os_str(),
-        "--times".as_ref(),
-        "0,50,100,200".as_ref(),
-        "--seed".as_ref(),
-        seed.as_ref(),
-    ])
+    let mut argv: Vec<&OsStr> = vec![command.as_ref(), photo_path.as_os_str(), "--mask".as_ref(), mask_path.as_os_str()];
+    argv.extend(["--out".as_ref(), dir.as_os_str(), "--seed".as_ref(), seed.as_ref()]);
+    argv.extend(extra.iter().map(OsStr::new));
+    run_command(&argv)
 }
 
 /// A procedural drying-wood material (64 x 64, 11 time steps) fitted with

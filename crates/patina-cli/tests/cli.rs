@@ -139,7 +139,16 @@ fn demo_makes_its_own_samples_and_measures_them() {
     let out = dir.join("demo");
     let r = patina(&["demo", "--out", s(&out)], None);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_eq!(listing(&out), vec!["exemplar.png", "manifest.json", "optimize.png", "quilt.png", "stbrdf", "ttf", "weather"]);
+    assert_eq!(
+        listing(&out),
+        vec!["decay", "exemplar.png", "manifest.json", "optimize.png", "quilt.png", "stbrdf", "stone", "ttf", "weather"]
+    );
+    // The stele erodes and the post's rust spreads.
+    let read = |p: &str| -> serde_json::Value { serde_json::from_slice(&std::fs::read(out.join(p)).unwrap()).unwrap() };
+    let area = read("stone/manifest.json")["metrics"]["object_pixels"].clone();
+    assert!(area[3].as_f64() < area[0].as_f64(), "stele area {area}");
+    let covered = read("decay/manifest.json")["metrics"]["decayed_fraction"].clone();
+    assert!(covered[7].as_f64() > covered[0].as_f64(), "rust cover {covered}");
     // The time-lapse: 40 frames enlarged, no more flicker than the input's.
     let t: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("ttf/manifest.json")).unwrap()).unwrap();
     assert_eq!(t["frames"].as_array().unwrap().len(), 40);
@@ -424,7 +433,10 @@ fn decay_writes_every_output_and_is_the_same_on_any_thread_count() {
     save_png(&photo, &img, BitDepth::Eight).unwrap();
     save_png(&body.to_image(), &mask, BitDepth::Eight).unwrap();
     let run = |out: &Path, threads: usize| {
-        let r = patina(&["decay", s(&img), "--mask", s(&mask), "--class", "cracked", "-o", s(out), "--frames", "4", "--seed", "9"], Some(threads));
+        let r = patina(
+            &["decay", s(&img), "--mask", s(&mask), "--class", "cracked", "-o", s(out), "--frames", "4", "--seed", "9"],
+            Some(threads),
+        );
         assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     };
     let (a, b) = (dir.join("a"), dir.join("b"));
@@ -436,7 +448,7 @@ fn decay_writes_every_output_and_is_the_same_on_any_thread_count() {
     let manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(a.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(manifest["frames"].as_array().unwrap().len(), 4);
     assert_eq!(manifest["params"]["class"], "cracked");
-    let covered = manifest["metrics"]["covered_fraction"].as_array().unwrap();
+    let covered = manifest["metrics"]["decayed_fraction"].as_array().unwrap();
     assert!(covered.windows(2).all(|p| p[1].as_f64() >= p[0].as_f64()), "{covered:?}");
     // Outside the mask every frame keeps the photo's bytes.
     let (first, last) = (load(a.join("frames/000.png")).unwrap(), load(a.join("frames/003.png")).unwrap());

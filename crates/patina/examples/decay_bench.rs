@@ -7,7 +7,7 @@
 //!    fixed 64 x 64 crops (mean of 4 / 2 / 1 seeds) and with the paper's
 //!    quarter-size crops (seed 1).
 //! 3. `decay` on a 1-megapixel photo (1152 x 868: a procedural painted
-//!    cylinder, or PHOTO with MASK resized to it) with 8 frames, per class:
+//!    post, or PHOTO with MASK resized to it) with 8 frames, per class:
 //!    texture, shading, Algorithm 1 (prepare), then diffusion and
 //!    compositing per frame.
 
@@ -15,28 +15,13 @@ mod common;
 
 use common::peak_rss_mib;
 use patina::decay::{self, texture, DecayClass, DecayParams, Inputs};
-use patina::image::color::linear_to_srgb;
 use patina::image::resample::{resize, Filter};
-use patina::image::{io, Image, Mask};
+use patina::image::{io, Mask};
 use patina::metrics::stationarity;
 use std::time::Instant;
 
 const W: usize = 1152;
 const H: usize = 868;
-
-fn procedural() -> (Image, Mask) {
-    let mask = Mask::from_fn(W, H, |x, y| (300..850).contains(&x) && (80..820).contains(&y));
-    let img = Image::from_fn(W, H, 3, |x, y, p| {
-        if mask.get(x, y) {
-            let u = (x as f32 - 300.0) / 550.0 * std::f32::consts::PI;
-            let shade = 0.2 + 0.8 * (u - 0.3).sin().max(0.0);
-            p.copy_from_slice(&[0.8, 0.3, 0.06].map(|a: f32| linear_to_srgb(a * shade)));
-        } else {
-            p.fill(0.4 + 0.2 * patina::samples::value_noise(3, x as f32 / 9.0, y as f32 / 9.0));
-        }
-    });
-    (img, mask)
-}
 
 fn main() {
     println!("| class | 2048x2048 texture |");
@@ -55,7 +40,9 @@ fn main() {
         let rgb = |n, seed| texture::generate(class, seed, 0, 0, n, n).expect("texture").select_channels(0..3);
         let fixed: Vec<f64> = [(256, 4u64), (1024, 2), (2048, 1)]
             .iter()
-            .map(|&(n, seeds)| (1..=seeds).map(|s| stationarity(&rgb(n, s), Some((64, 64)), 64, 0).expect("metric").mean).sum::<f64>() / seeds as f64)
+            .map(|&(n, seeds)| {
+                (1..=seeds).map(|s| stationarity(&rgb(n, s), Some((64, 64)), 64, 0).expect("metric").mean).sum::<f64>() / seeds as f64
+            })
             .collect();
         let quarter: Vec<f64> = [256, 1024, 2048].iter().map(|&n| stationarity(&rgb(n, 1), None, 64, 0).expect("metric").mean).collect();
         let ratio = fixed.iter().cloned().fold(0.0, f64::max) / fixed.iter().cloned().fold(f64::MAX, f64::min);
@@ -80,15 +67,16 @@ fn main() {
             (p, Mask::from_image(&m), photo.clone())
         }
         _ => {
-            let (p, m) = procedural();
-            (p, m, "procedural cylinder".into())
+            let (p, m) = patina::samples::painted_post(W, H, 1);
+            (p, m, "procedural painted post".into())
         }
     };
     println!("| {name}, {W}x{H} ({:.2} MP), 8 frames | prepare | 8 frames | total |", (W * H) as f64 / 1e6);
     println!("|---|---:|---:|---:|");
     for class in DecayClass::ALL {
         let t = Instant::now();
-        let prep = decay::prepare(&photo, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(class), 1).expect("prepare");
+        let prep =
+            decay::prepare(&photo, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(class), 1).expect("prepare");
         let prepare_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let frames = decay::sequence(&prep, 8, 1, None).expect("sequence");

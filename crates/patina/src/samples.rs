@@ -385,3 +385,24 @@ pub fn carved_stele(width: usize, height: usize, seed: u64) -> (Image, Mask) {
     });
     (image, mask)
 }
+
+/// A photographed painted post (RGB) and its mask: an orange cylinder lit
+/// from the left, standing in the middle half of the frame over mottled
+/// grey pavement. The demo's and the benchmark's input for `patina decay`.
+pub fn painted_post(width: usize, height: usize, seed: u64) -> (Image, Mask) {
+    let (x0, x1) = (width * 26 / 100, width * 74 / 100);
+    let (y0, y1) = (height / 10, height * 95 / 100);
+    let mask = Mask::from_fn(width, height, |x, y| (x0..x1).contains(&x) && (y0..y1).contains(&y));
+    let image = Image::from_fn(width, height, 3, |x, y, p| {
+        let grain = 0.03 * (lattice(seed ^ 0x2b, x as i64, y as i64) - 0.5);
+        if mask.get(x, y) {
+            let u = (x - x0) as f32 / (x1 - x0) as f32 * std::f32::consts::PI;
+            let shade = 0.2 + 0.8 * (u - 0.3).sin().max(0.0);
+            let c = [0.8, 0.3, 0.06].map(|a: f32| crate::image::color::linear_to_srgb(a * shade) + grain);
+            p.copy_from_slice(&c);
+        } else {
+            p.fill(0.4 + 0.2 * fractal_noise(seed ^ 0x4d, x as f32, y as f32, 9.0, 3) + grain);
+        }
+    });
+    (image, mask)
+}

@@ -16,7 +16,7 @@
 
 use crate::image::color::{srgb_to_linear, LUMA};
 use crate::image::summed::SummedArea;
-use crate::image::{Image, Mask};
+use crate::image::{pixel_bounds, Image, Mask};
 
 /// Parameters of the shading estimate.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
@@ -44,8 +44,9 @@ pub fn estimate(photo: &Image, mask: &Mask, params: &ShadingParams) -> Image {
         let y_lin: f32 = (0..3).map(|k| LUMA[k] * srgb_to_linear(c[k.min(photo.channels() - 1)])).sum();
         p[0] = y_lin.max(1e-3).ln();
     });
-    let (bx0, by0, bx1, by1) = bounds(mask);
-    let side = (bx1 - bx0).max(by1 - by0) as f32;
+    let set = mask.bits().iter().enumerate().filter(|(_, &m)| m).map(|(i, _)| i);
+    let (bx0, by0, bx1, by1) = pixel_bounds(set, w).unwrap_or((0, 0, w - 1, h - 1));
+    let side = (bx1 - bx0).max(by1 - by0) as f32 + 1.0;
     let r = ((params.radius * side).round() as usize).max(2);
     let mut shading = log_lum.clone();
     for _ in 0..PASSES {
@@ -105,20 +106,6 @@ fn guided_pass(input: &Image, guide: &Image, mask: &Mask, r: usize, eps: f64) ->
         let n = count.sum(x0, y0, ww, hh);
         q[0] = if n < 1.0 { g(x, y) as f32 } else { ((sum_a.sum(x0, y0, ww, hh) * g(x, y) + sum_b.sum(x0, y0, ww, hh)) / n) as f32 };
     })
-}
-
-/// Bounding box (x0, y0, x1, y1) of the set pixels, exclusive ends.
-fn bounds(mask: &Mask) -> (usize, usize, usize, usize) {
-    let (w, h) = mask.size();
-    let (mut x0, mut y0, mut x1, mut y1) = (w, h, 0, 0);
-    for y in 0..h {
-        for x in 0..w {
-            if mask.get(x, y) {
-                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x + 1), y1.max(y + 1));
-            }
-        }
-    }
-    (x0, y0, x1.max(x0), y1.max(y0))
 }
 
 #[cfg(test)]

@@ -298,6 +298,15 @@ impl Mask {
     }
 }
 
+/// Inclusive bounding box (x0, y0, x1, y1) of row-major pixel indices in an
+/// image `w` wide; `None` when there are none.
+pub fn pixel_bounds(pixels: impl Iterator<Item = usize>, w: usize) -> Option<(usize, usize, usize, usize)> {
+    pixels.fold(None, |b, i| {
+        let (x, y) = (i % w, i / w);
+        Some(b.map_or((x, y, x, y), |(x0, y0, x1, y1)| (x0.min(x), y0.min(y), x1.max(x), y1.max(y))))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -36,14 +36,7 @@ pub(crate) fn neighbours(x: usize, y: usize, w: usize, h: usize) -> impl Iterato
     [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)].into_iter().filter(move |&(a, b)| a < w && b < h)
 }
 
-/// Inclusive bounding box (x0, y0, x1, y1) of row-major pixel indices in an
-/// image `w` wide; `None` when there are none.
-pub(crate) fn bounds(pixels: impl Iterator<Item = usize>, w: usize) -> Option<(usize, usize, usize, usize)> {
-    pixels.fold(None, |b, i| {
-        let (x, y) = (i % w, i / w);
-        Some(b.map_or((x, y, x, y), |(x0, y0, x1, y1)| (x0.min(x), y0.min(y), x1.max(x), y1.max(y))))
-    })
-}
+pub(crate) use crate::image::pixel_bounds as bounds;
 
 /// Row-major indices of the set pixels of `mask`.
 pub(crate) fn set_pixels(mask: &Mask) -> impl Iterator<Item = usize> + '_ {
