@@ -10,7 +10,12 @@
 const GRADIENTS: [[f32; 2]; 16] = {
     let mut g = [[0.0; 2]; 16];
     // cos and sin of k * 22.5 degrees for k = 0..4; the rest by symmetry.
-    let quarter = [[1.0, 0.0], [0.923_879_5, 0.382_683_43], [0.707_106_8, 0.707_106_8], [0.382_683_43, 0.923_879_5]];
+    let quarter = [
+        [1.0, 0.0],
+        [0.923_879_5, 0.382_683_43],
+        [std::f32::consts::FRAC_1_SQRT_2, std::f32::consts::FRAC_1_SQRT_2],
+        [0.382_683_43, 0.923_879_5],
+    ];
     let mut k = 0;
     while k < 16 {
         let [c, s] = quarter[k % 4];
