@@ -15,8 +15,6 @@ mod common;
 
 use common::peak_rss_mib;
 use patina::decay::{self, texture, DecayClass, DecayParams, Inputs};
-use patina::image::resample::{resize, Filter};
-use patina::image::{io, Mask};
 use patina::metrics::stationarity;
 use std::time::Instant;
 
@@ -59,18 +57,10 @@ fn main() {
     }
     println!();
 
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let (photo, mask, name) = match args.as_slice() {
-        [photo, mask] => {
-            let p = resize(&io::load(photo).expect("photo"), W, H, Filter::Cubic).expect("resize");
-            let m = resize(&io::load(mask).expect("mask"), W, H, Filter::Linear).expect("resize");
-            (p, Mask::from_image(&m), photo.clone())
-        }
-        _ => {
-            let (p, m) = patina::samples::painted_post(W, H, 1);
-            (p, m, "procedural painted post".into())
-        }
-    };
+    let (photo, mask, name) = common::photo_and_mask(W, H, || {
+        let (p, m) = patina::samples::painted_post(W, H, 1);
+        (p, m, "procedural painted post".into())
+    });
     println!("| {name}, {W}x{H} ({:.2} MP), 8 frames | prepare | 8 frames | total |", (W * H) as f64 / 1e6);
     println!("|---|---:|---:|---:|");
     for class in DecayClass::ALL {

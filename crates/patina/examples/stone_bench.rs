@@ -10,8 +10,7 @@
 mod common;
 
 use common::peak_rss_mib;
-use patina::image::resample::{resize, Filter};
-use patina::image::{io, Image, Mask};
+use patina::image::{Image, Mask};
 use patina::stone::{self, StoneParams};
 use std::time::Instant;
 
@@ -35,18 +34,10 @@ fn procedural() -> (Image, Mask) {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let (photo, mask, name) = match args.as_slice() {
-        [photo, mask] => {
-            let p = resize(&io::load(photo).expect("photo"), W, H, Filter::Cubic).expect("resize");
-            let m = resize(&io::load(mask).expect("mask"), W, H, Filter::Linear).expect("resize");
-            (p, Mask::from_image(&m), photo.clone())
-        }
-        _ => {
-            let (p, m) = procedural();
-            (p, m, "procedural slab".into())
-        }
-    };
+    let (photo, mask, name) = common::photo_and_mask(W, H, || {
+        let (p, m) = procedural();
+        (p, m, "procedural slab".into())
+    });
     let params = StoneParams::default();
     let t = Instant::now();
     let prep = stone::prepare(&photo, Some(&mask), None, &params).expect("prepare");
