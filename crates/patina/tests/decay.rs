@@ -175,3 +175,24 @@ fn cracked_is_stationary_at_every_size() {
 fn mossy_is_stationary_at_every_size() {
     stationary_at_every_size(DecayClass::Mossy);
 }
+
+#[test]
+fn a_gray_photo_decays_in_colour_and_keeps_its_values_outside_the_mask() {
+    let (rgb, mask) = (photo(), object());
+    let gray = Image::from_fn(W, H, 1, |x, y, p| p[0] = rgb.at(x, y, 1));
+    let prep = decay::prepare(&gray, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(DecayClass::Rust), 3).unwrap();
+    let frame = &decay::sequence(&prep, 2, 3, None).unwrap()[1];
+    assert_eq!(frame.image.channels(), 3);
+    let mut coloured = 0;
+    for y in 0..H {
+        for x in 0..W {
+            let p = frame.image.pixel(x, y);
+            if !mask.get(x, y) {
+                assert_eq!(p, [gray.at(x, y, 0); 3]);
+            } else if (p[0] - p[2]).abs() > 0.05 {
+                coloured += 1;
+            }
+        }
+    }
+    assert!(coloured > mask.count() / 20, "rust should bring colour: {coloured} pixels");
+}

@@ -18,7 +18,7 @@ pub use degree::Diffusion;
 pub use shading::ShadingParams;
 pub use texture::{DecayClass, Style};
 
-use crate::image::color::to_lab;
+use crate::image::color::{to_lab, with_colour};
 use crate::image::{Image, Mask};
 use crate::synth::Progress;
 use crate::{Error, Result};
@@ -96,11 +96,10 @@ pub struct Inputs<'a> {
 
 /// Check sizes, make or take the texture, estimate the shading and the
 /// initial degree map.
+/// A gray photo is decayed as RGB (the decay brings colour to it).
 pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -> Result<Prepared> {
     let (w, h) = photo.size();
-    if photo.channels() < 3 {
-        return Err(Error::invalid("decay needs a colour photo (RGB)"));
-    }
+    let photo = &with_colour(photo);
     let same = |what: &str, (a, b): (usize, usize)| {
         if (a, b) == (w, h) {
             Ok(())

@@ -134,12 +134,9 @@ pub fn generate(class: DecayClass, seed: u64, x0: i64, y0: i64, width: usize, he
 /// with the engine (texture optimization: stationary and seamless). The
 /// onset channel is a smooth fBm field, so the exemplar's look spreads in
 /// ragged patches. Unlike [`generate`], windows of different sizes are not
-/// parts of one texture.
+/// parts of one texture. A gray exemplar gives a gray texture.
 pub fn from_exemplar(exemplar: &Image, width: usize, height: usize, seed: u64, progress: Option<crate::synth::Progress>) -> Result<Image> {
-    if exemplar.channels() < 3 {
-        return Err(Error::invalid("a decay exemplar needs colour (RGB)"));
-    }
-    let rgb = exemplar.select_channels(0..3);
+    let rgb = crate::image::color::with_colour(exemplar).select_channels(0..3);
     let mut synth = Synthesis::new(&rgb).size(width, height).seed(seed);
     if let Some(p) = progress {
         synth = synth.progress(p);

@@ -121,6 +121,22 @@ pub fn from_lab(img: &Image) -> Image {
     map_pixels3(img, "rgb", |lab| lab_pixel_to_srgb(lab).map(|v| v.clamp(0.0, 1.0)))
 }
 
+/// `img` with colour: gray (and gray + alpha) become RGB (RGBA) by
+/// repeating the gray value; images with 3 or more channels are returned
+/// as they are.
+pub fn with_colour(img: &Image) -> Image {
+    match img.channels() {
+        1 | 2 => Image::from_fn(img.width(), img.height(), img.channels() + 2, |x, y, p| {
+            let s = img.pixel(x, y);
+            p[..3].fill(s[0]);
+            if s.len() == 2 {
+                p[3] = s[1];
+            }
+        }),
+        _ => img.clone(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
