@@ -204,19 +204,20 @@ fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
 /// wood or plaster); each flake appears whole at its own onset.
 fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
-    let flake_field = |x: f32, y: f32| {
+    // The flake field at grain coordinates (u, v), given the flake cell there.
+    let flake_field = |u: f32, v: f32, cell_id: f32| g.layer(0).warped(u, v, 60.0 * s, 5, 25.0 * s) + 0.25 * (cell_id - 0.5);
+    let at = |x: f32, y: f32| {
         let (u, v) = g.grain(x, y);
-        let base = g.layer(0).warped(u, v, 60.0 * s, 5, 25.0 * s);
-        let cells = g.layer(1).worley(u, v, 34.0 * s);
-        base + 0.25 * (cells.id - 0.5)
+        (u, v, g.layer(1).worley(u, v, 34.0 * s).id)
     };
     let threshold = 0.05;
-    let f = flake_field(x, y);
+    let (u, v, cell_id) = at(x, y);
+    let f = flake_field(u, v, cell_id);
     let flaked = smoothstep(threshold - 0.01, threshold + 0.01, f);
     // Shadow of the lifted edge, cast towards +x +y.
-    let shadow = smoothstep(threshold - 0.01, threshold + 0.01, flake_field(x - 2.5, y - 2.5)) * (1.0 - flaked);
+    let (su, sv, shadow_cell) = at(x - 2.5, y - 2.5);
+    let shadow = smoothstep(threshold - 0.01, threshold + 0.01, flake_field(su, sv, shadow_cell)) * (1.0 - flaked);
     let lip = (1.0 - smoothstep(0.0, 0.035, (f - threshold).abs())) * (f < threshold) as u8 as f32;
-    let (u, v) = g.grain(x, y);
     let grain = g.layer(2).white(x as i32, y as i32) - 0.5;
     let substrate = if g.style.variant < 0.5 {
         // Weathered grey-brown wood: fibres along the grain.
@@ -234,10 +235,8 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     c = mix3(c, [1.0, 1.0, 1.0], 0.35 * lip);
     // Flakes peel one at a time: the onset is that of the flake's cell. The
     // paint between flakes never appears: it is the photo's own paint.
-    let (u, v) = g.grain(x, y);
-    let cell = g.layer(1).worley(u, v, 34.0 * s);
     let region = g.layer(5).fbm(x, y, 120.0 * s, 3, 0.5);
-    let onset = if flaked > 0.5 || lip > 0.05 { (0.45 - 0.45 * region + 0.35 * (cell.id - 0.5)).clamp(0.02, 0.95) } else { NEVER };
+    let onset = if flaked > 0.5 || lip > 0.05 { (0.45 - 0.45 * region + 0.35 * (cell_id - 0.5)).clamp(0.02, 0.95) } else { NEVER };
     [c[0], c[1], c[2], onset]
 }
 
