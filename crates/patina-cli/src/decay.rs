@@ -9,6 +9,7 @@ use patina::image::color::{linear_to_srgb, luminance};
 use patina::image::io::{self, save_png, BitDepth};
 use patina::image::{Image, Mask};
 use patina::{Error, Result};
+use rayon::prelude::*;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
@@ -60,7 +61,7 @@ pub struct Args {
     /// Blob size of the initial degree map, as a fraction of the longer side (Algorithm 1's continuity).
     #[arg(long, default_value_t = 0.06)]
     pub continuity: f32,
-    /// Painted initial degree map (luminance: black = intact, white = fully decayed) instead of Algorithm 1.
+    /// Painted initial degree map (grey: black = intact, white = fully decayed) instead of Algorithm 1.
     #[arg(long)]
     pub degree: Option<PathBuf>,
     /// Decay photo to synthesize the texture from (the engine), instead of the procedural generator for --class.
@@ -98,16 +99,6 @@ pub fn run(args: Args) -> Result<()> {
     if args.frames == 0 || args.frames > 10_000 {
         return Err(Error::invalid(format!("--frames must be 1 to 10000, got {}", args.frames)));
     }
-    for (name, v) in [
-        ("--spread", args.spread),
-        ("--growth", args.growth),
-        ("--shading-radius", args.shading_radius),
-        ("--shading-eps", args.shading_eps),
-    ] {
-        if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
-            return Err(Error::invalid(format!("{name} must be in [0, 1], got {v}")));
-        }
-    }
     let params = DecayParams {
         class: args.class,
         area: args.area,
@@ -115,12 +106,13 @@ pub fn run(args: Args) -> Result<()> {
         diffusion: Diffusion { spread: args.spread, growth: args.growth },
         shading: ShadingParams { radius: args.shading_radius, eps: args.shading_eps },
     };
+    params.check()?;
     let photo = io::load(&args.photo)?;
-    let load_gray = |p: &Option<PathBuf>| p.as_ref().map(io::load).transpose();
-    let mask = load_gray(&args.mask)?.map(|m| Mask::from_image(&luminance(&m)));
-    let painting = load_gray(&args.degree)?;
-    let rate = load_gray(&args.rate_map)?;
-    let exemplar = load_gray(&args.exemplar)?;
+    let load_optional = |p: &Option<PathBuf>| p.as_ref().map(io::load).transpose();
+    let mask = load_optional(&args.mask)?.map(|m| Mask::from_image(&luminance(&m)));
+    let painting = load_optional(&args.degree)?;
+    let rate = load_optional(&args.rate_map)?;
+    let exemplar = load_optional(&args.exemplar)?;
     manifest.timings_ms.insert("load".into(), clock.lap());
 
     let synthesized = match &exemplar {
@@ -138,10 +130,8 @@ pub fn run(args: Args) -> Result<()> {
     save_png(&prepared.texture.select_channels(3..4), args.out.join("texture_onset.png"), BitDepth::Eight)?;
     save_png(&shading_preview(&prepared.shading, &prepared.mask), args.out.join("shading.png"), BitDepth::Eight)?;
     manifest.outputs.extend(["texture.png".into(), "texture_onset.png".into(), "shading.png".into()]);
-    for (f, name) in frames.iter().zip(&degrees) {
-        save_png(&f.degree, args.out.join(name), BitDepth::Sixteen)?;
-        manifest.outputs.push(name.into());
-    }
+    frames.par_iter().zip(&degrees).try_for_each(|(f, name)| save_png(&f.degree, args.out.join(name), BitDepth::Sixteen))?;
+    manifest.outputs.extend(degrees.iter().map(PathBuf::from));
     let timed: Vec<(f32, &Image)> = frames.iter().enumerate().map(|(i, f)| (i as f32, &f.image)).collect();
     write_sequence(&args.out, &timed, GIF_DELAY_MS, &mut manifest)?;
     manifest.timings_ms.insert("save".into(), clock.lap());
@@ -167,8 +157,8 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The relative shading for viewing: S / 2 in sRGB (the mean shading is
-/// mid-grey), black outside the object.
+/// The relative shading for viewing: S / 2 in linear light, sRGB-encoded
+/// (the mean shading shows as 50% linear grey), black outside the object.
 fn shading_preview(shading: &Image, mask: &Mask) -> Image {
     Image::from_fn(shading.width(), shading.height(), 1, |x, y, p| {
         p[0] = if mask.get(x, y) { linear_to_srgb((0.5 * shading.at(x, y, 0)).min(1.0)) } else { 0.0 };

@@ -463,6 +463,7 @@ fn decay_writes_every_output_and_is_the_same_on_any_thread_count() {
     fails_cleanly(&dir, &["decay", s(&img), "--class", "rot", "-o", s(&dir.join("c"))], "rot");
     fails_cleanly(&dir, &["decay", s(&img), "--frames", "0", "-o", s(&dir.join("c"))], "frames");
     fails_cleanly(&dir, &["decay", s(&img), "--area", "1.5", "-o", s(&dir.join("c"))], "area");
+    fails_cleanly(&dir, &["decay", s(&img), "--spread", "2", "-o", s(&dir.join("c"))], "spread");
     save_png(&patina::Image::new(40, 40, 1), dir.join("small.png"), BitDepth::Eight).unwrap();
     fails_cleanly(&dir, &["decay", s(&img), "--mask", s(&dir.join("small.png")), "-o", s(&dir.join("c"))], "mask");
     fails_cleanly(&dir, &["decay", s(&dir.join("missing.jpg")), "-o", s(&dir.join("c"))], "missing.jpg");

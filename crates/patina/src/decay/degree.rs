@@ -70,17 +70,24 @@ pub fn initial(mask: &Mask, area: f32, continuity: f32, seed: u64) -> Result<(Im
     Ok((degree, draws))
 }
 
-/// A user's degree map (a brush painting): its luminance, 0 outside the mask.
+/// A user's degree map (a brush painting): the mean of its colour
+/// channels (its grey for a grey painting), 0 outside the mask.
 pub fn from_painting(painting: &Image, mask: &Mask) -> Result<Image> {
     if painting.size() != mask.size() {
         let ((a, b), (c, d)) = (painting.size(), mask.size());
         return Err(Error::invalid(format!("the degree map is {a}x{b} but the photo is {c}x{d}")));
     }
-    let n = painting.channels().min(3);
+    let grey = channel_mean(painting);
     Ok(Image::from_fn(mask.width(), mask.height(), 1, |x, y, p| {
-        let v = painting.pixel(x, y)[..n].iter().sum::<f32>() / n as f32;
-        p[0] = if mask.get(x, y) { v.clamp(0.0, 1.0) } else { 0.0 };
+        p[0] = if mask.get(x, y) { grey.at(x, y, 0).clamp(0.0, 1.0) } else { 0.0 };
     }))
+}
+
+/// The mean of the first (up to) three channels of a painted map: its
+/// grey value, whatever its channel layout.
+pub fn channel_mean(painting: &Image) -> Image {
+    let n = painting.channels().min(3);
+    Image::from_fn(painting.width(), painting.height(), 1, |x, y, p| p[0] = painting.pixel(x, y)[..n].iter().sum::<f32>() / n as f32)
 }
 
 /// Parameters of decay diffusion (section III-C4).

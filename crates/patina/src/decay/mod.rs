@@ -46,6 +46,18 @@ impl DecayParams {
     pub fn new(class: DecayClass) -> Self {
         DecayParams { class, area: 0.25, continuity: 0.06, diffusion: Diffusion::default(), shading: ShadingParams::default() }
     }
+
+    /// Refuse diffusion and shading parameters outside [0, 1] (the area and
+    /// continuity are checked by [`degree::initial`], which uses them).
+    pub fn check(&self) -> Result<()> {
+        let (d, s) = (&self.diffusion, &self.shading);
+        for (name, v) in [("--spread", d.spread), ("--growth", d.growth), ("--shading-radius", s.radius), ("--shading-eps", s.eps)] {
+            if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
+                return Err(Error::invalid(format!("{name} must be in [0, 1], got {v}")));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// What [`sequence`] needs, computed once per photo.
@@ -88,9 +100,9 @@ pub struct Inputs<'a> {
     /// A ready decay texture (sRGB + onset, the photo's size), e.g. from
     /// [`texture::from_exemplar`]; default: the procedural generator.
     pub texture: Option<&'a Image>,
-    /// A painted initial degree map (luminance in [0, 1]); default: Algorithm 1.
+    /// A painted initial degree map (mean of its colour channels, in [0, 1]); default: Algorithm 1.
     pub degree: Option<&'a Image>,
-    /// Spatial regularisation: luminance 0.5 = normal speed, 1 = twice, 0 = none.
+    /// Spatial regularisation (mean of its colour channels): 0.5 = normal speed, 1 = twice, 0 = none.
     pub rate: Option<&'a Image>,
 }
 
@@ -98,6 +110,7 @@ pub struct Inputs<'a> {
 /// initial degree map.
 /// A gray photo is decayed as RGB (the decay brings colour to it).
 pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -> Result<Prepared> {
+    params.check()?;
     let (w, h) = photo.size();
     let photo = &with_colour(photo);
     let same = |what: &str, (a, b): (usize, usize)| {
@@ -139,8 +152,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     let rate = match inputs.rate {
         Some(r) => {
             same("rate map", r.size())?;
-            let n = r.channels().min(3);
-            Some(Image::from_fn(w, h, 1, |x, y, p| p[0] = (2.0 * r.pixel(x, y)[..n].iter().sum::<f32>() / n as f32).clamp(0.0, 2.0)))
+            Some(degree::channel_mean(r).map(|v| (2.0 * v).clamp(0.0, 2.0)))
         }
         None => None,
     };
