@@ -1,7 +1,7 @@
 //! `patina decay`, `patina decay-texture`: natural image decay (Hao et al. 2023).
 
 use crate::output::{
-    check_outputs, manifest_path, mkdir, parse_size, refuse_overwrite, sequence_outputs, write_sequence, Manifest, Stopwatch,
+    check_outputs, manifest_path, parse_size, write_sequence, Manifest, OutDir, Stopwatch,
 };
 use crate::progress::with_bar;
 use patina::decay::{self, degree::Diffusion, texture, DecayClass, DecayParams, Inputs, ShadingParams};
@@ -50,16 +50,16 @@ pub struct Args {
     #[arg(short, long)]
     pub out: PathBuf,
     /// Number of frames (frame 0 shows the initial degree map).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = |s: &str| crate::flags::count(s, 1, 1000))]
     pub frames: usize,
     /// Random seed: texture, degree map and growth; the same inputs and seed give the same bytes.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Fraction of the mask the initial degree map covers (Algorithm 1; kept within +/-25%).
-    #[arg(long, default_value_t = 0.25)]
+    #[arg(long, default_value_t = 0.25, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1.0))]
     pub area: f32,
     /// Blob size of the initial degree map, as a fraction of the longer side (Algorithm 1's continuity).
-    #[arg(long, default_value_t = 0.06)]
+    #[arg(long, default_value_t = 0.06, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1.0))]
     pub continuity: f32,
     /// Painted initial degree map (grey: black = intact, white = fully decayed) instead of Algorithm 1.
     #[arg(long)]
@@ -71,17 +71,20 @@ pub struct Args {
     #[arg(long)]
     pub rate_map: Option<PathBuf>,
     /// Diffusion length per frame, as a fraction of the longer side (eq. 4).
-    #[arg(long, default_value_t = Diffusion::default().spread)]
+    #[arg(long, default_value_t = Diffusion::default().spread, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0))]
     pub spread: f32,
     /// Self-growth per frame: Z ~ U(0, growth) added where D > 0.25 (eq. 6).
-    #[arg(long, default_value_t = Diffusion::default().growth)]
+    #[arg(long, default_value_t = Diffusion::default().growth, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0))]
     pub growth: f32,
     /// Shading window radius, as a fraction of the object's longer side.
-    #[arg(long, default_value_t = ShadingParams::default().radius)]
+    #[arg(long, default_value_t = ShadingParams::default().radius, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1.0))]
     pub shading_radius: f32,
     /// Shading smoothing strength: log-luminance variance below this counts as texture, not shading.
-    #[arg(long, default_value_t = ShadingParams::default().eps)]
+    #[arg(long, default_value_t = ShadingParams::default().eps, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1000.0))]
     pub shading_eps: f32,
+    /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -93,12 +96,6 @@ pub fn run(args: Args) -> Result<()> {
             .flatten()
             .collect();
     let degrees: Vec<String> = (0..args.frames).map(|i| format!("degree_{i:03}.png")).collect();
-    let mut extra = vec!["texture.png", "texture_onset.png", "shading.png"];
-    extra.extend(degrees.iter().map(String::as_str));
-    refuse_overwrite(&sequence_outputs(&args.out, args.frames, &extra), &inputs)?;
-    if args.frames == 0 || args.frames > 10_000 {
-        return Err(Error::invalid(format!("--frames must be 1 to 10000, got {}", args.frames)));
-    }
     let params = DecayParams {
         class: args.class,
         area: args.area,
@@ -107,8 +104,10 @@ pub fn run(args: Args) -> Result<()> {
         shading: ShadingParams { radius: args.shading_radius, eps: args.shading_eps },
     };
     params.check()?;
-    let photo = io::load(&args.photo)?;
-    let load_optional = |p: &Option<PathBuf>| p.as_ref().map(io::load).transpose();
+    let out = OutDir::begin(&args.out, &inputs, args.overwrite)?;
+    let dir = out.path();
+    let photo = crate::input::load(&args.photo)?;
+    let load_optional = |p: &Option<PathBuf>| p.as_ref().map(crate::input::load).transpose();
     let mask = load_optional(&args.mask)?.map(|m| Mask::from_image(&luminance(&m)));
     let painting = load_optional(&args.degree)?;
     let rate = load_optional(&args.rate_map)?;
@@ -125,15 +124,14 @@ pub fn run(args: Args) -> Result<()> {
     let frames = with_bar("decay", |report| decay::sequence(&prepared, args.frames, args.seed, Some(report)))?;
     manifest.timings_ms.insert("frames".into(), clock.lap());
 
-    mkdir(&args.out)?;
-    save_png(&prepared.texture.select_channels(0..3), args.out.join("texture.png"), BitDepth::Eight)?;
-    save_png(&prepared.texture.select_channels(3..4), args.out.join("texture_onset.png"), BitDepth::Eight)?;
-    save_png(&shading_preview(&prepared.shading, &prepared.mask), args.out.join("shading.png"), BitDepth::Eight)?;
+    save_png(&prepared.texture.select_channels(0..3), dir.join("texture.png"), BitDepth::Eight)?;
+    save_png(&prepared.texture.select_channels(3..4), dir.join("texture_onset.png"), BitDepth::Eight)?;
+    save_png(&shading_preview(&prepared.shading, &prepared.mask), dir.join("shading.png"), BitDepth::Eight)?;
     manifest.outputs.extend(["texture.png".into(), "texture_onset.png".into(), "shading.png".into()]);
-    frames.par_iter().zip(&degrees).try_for_each(|(f, name)| save_png(&f.degree, args.out.join(name), BitDepth::Sixteen))?;
+    frames.par_iter().zip(&degrees).try_for_each(|(f, name)| save_png(&f.degree, dir.join(name), BitDepth::Sixteen))?;
     manifest.outputs.extend(degrees.iter().map(PathBuf::from));
     let timed: Vec<(f32, &Image)> = frames.iter().enumerate().map(|(i, f)| (i as f32, &f.image)).collect();
-    write_sequence(&args.out, &timed, GIF_DELAY_MS, &mut manifest)?;
+    write_sequence(dir, &timed, GIF_DELAY_MS, &mut manifest)?;
     manifest.timings_ms.insert("save".into(), clock.lap());
 
     let mut p = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
@@ -151,7 +149,8 @@ pub fn run(args: Args) -> Result<()> {
     manifest.metrics.insert("algorithm1_draws".into(), json!(prepared.draws));
     manifest.metrics.insert("diffusion_steps".into(), json!(frames.iter().map(|f| f.steps).collect::<Vec<_>>()));
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
-    manifest.write(&args.out.join("manifest.json"))?;
+    manifest.write(&dir.join("manifest.json"))?;
+    out.commit()?;
     let source = if exemplar.is_some() { "the exemplar's decay" } else { args.class.name() };
     println!("patina decay: {} frames of {source} in {}", frames.len(), args.out.display());
     Ok(())
@@ -209,7 +208,7 @@ pub fn run_texture(args: TextureArgs) -> Result<()> {
             if args.offset != (0, 0) {
                 return Err(Error::invalid("--offset applies to procedural textures, not to --exemplar"));
             }
-            let ex = io::load(path)?;
+            let ex = crate::input::load(path)?;
             with_bar("texture", |report| texture::from_exemplar(&ex, w, h, args.seed, Some(report)))?
         }
         None => texture::generate(args.class, args.seed, args.offset.0, args.offset.1, w, h)?,

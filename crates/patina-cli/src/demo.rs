@@ -1,6 +1,6 @@
 //! `patina demo`: the whole pipeline on samples patina makes itself.
 
-use crate::output::{mkdir, Manifest, Stopwatch};
+use crate::output::{mkdir, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
 use clap::Parser;
 use patina::image::io::{save_png, BitDepth};
@@ -8,11 +8,11 @@ use patina::synth::{OptimizeParams, QuiltParams, Synthesis};
 use patina::{metrics, samples, Error, Result};
 use serde_json::json;
 use std::ffi::OsStr;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Folder for the demo's outputs (created if missing).
+    /// Folder for the demo's outputs (created if missing; a previous demo's folder is replaced, any other non-empty folder is refused).
     #[arg(short, long, default_value = "patina-demo")]
     pub out: PathBuf,
     /// Random seed.
@@ -21,7 +21,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    mkdir(&args.out)?;
+    let out = OutDir::begin(&args.out, &[], true)?;
+    let dir = out.path();
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("demo", args.seed);
     let exemplar = samples::bricks(128, 128, args.seed);
@@ -50,9 +51,8 @@ pub fn run(args: Args) -> Result<()> {
 
     let files = [("exemplar.png", &exemplar), ("optimize.png", &optimized.image), ("quilt.png", &quilted.image)];
     for (name, img) in files {
-        let path = args.out.join(name);
-        save_png(img, &path, BitDepth::Eight)?;
-        manifest.outputs.push(path);
+        save_png(img, dir.join(name), BitDepth::Eight)?;
+        manifest.outputs.push(name.into());
     }
     manifest.timings_ms.insert("save".into(), clock.lap());
     manifest.params = json!({
@@ -61,52 +61,56 @@ pub fn run(args: Args) -> Result<()> {
         "optimize": optimize,
         "quilt": quilt,
     });
-    manifest.write(&args.out.join("manifest.json"))?;
-    eprintln!("patina demo: wrote {} images and manifest.json to {}", files.len(), args.out.display());
-    weather_demo(&args)?;
-    ttf_demo(&args)?;
-    stbrdf_demo(&args)?;
-    stone_demo(&args)?;
-    decay_demo(&args)
+    manifest.write(&dir.join("manifest.json"))?;
+    let samples = dir.join("samples");
+    mkdir(&samples)?;
+    weather_demo(dir, args.seed)?;
+    ttf_demo(dir, args.seed)?;
+    stbrdf_demo(dir, args.seed)?;
+    stone_demo(dir, args.seed)?;
+    decay_demo(dir, args.seed)?;
+    out.commit()?;
+    eprintln!("patina demo: wrote every output to {} (the generated inputs are in {})", args.out.display(), args.out.join("samples").display());
+    Ok(())
 }
 
 /// A procedural painted post (256 x 320) and its mask, rusting over 8
 /// frames into OUT/decay/ like `patina decay`.
-fn decay_demo(args: &Args) -> Result<()> {
-    photo_demo(args, "decay", samples::painted_post(256, 320, args.seed), &["--class", "rust"])
+fn decay_demo(dir: &Path, seed: u64) -> Result<()> {
+    photo_demo(dir, seed, "decay", samples::painted_post(256, 320, seed), &["--class", "rust"])
 }
 
 /// A procedural carved stele (256 x 320) and its mask, weathered into
 /// OUT/stone/ like `patina stone`.
-fn stone_demo(args: &Args) -> Result<()> {
-    photo_demo(args, "stone", samples::carved_stele(256, 320, args.seed), &["--times", "0,50,100,200"])
+fn stone_demo(dir: &Path, seed: u64) -> Result<()> {
+    photo_demo(dir, seed, "stone", samples::carved_stele(256, 320, seed), &["--times", "0,50,100,200"])
 }
 
-/// Write a procedural photo and its mask into OUT/COMMAND/ and run
-/// `patina COMMAND input.png --mask input_mask.png --out OUT/COMMAND --seed S`
-/// with `extra` flags.
-fn photo_demo(args: &Args, command: &str, (photo, mask): (patina::Image, patina::Mask), extra: &[&str]) -> Result<()> {
-    let dir = args.out.join(command);
-    mkdir(&dir)?;
-    let (photo_path, mask_path) = (dir.join("input.png"), dir.join("input_mask.png"));
+/// Write a procedural photo and its mask as OUT/samples/COMMAND.png and
+/// COMMAND_mask.png and run `patina COMMAND PHOTO --mask MASK --out
+/// OUT/COMMAND --seed S` with `extra` flags.
+fn photo_demo(dir: &Path, seed: u64, command: &str, (photo, mask): (patina::Image, patina::Mask), extra: &[&str]) -> Result<()> {
+    let out = dir.join(command);
+    let photo_path = dir.join("samples").join(format!("{command}.png"));
+    let mask_path = dir.join("samples").join(format!("{command}_mask.png"));
     save_png(&photo, &photo_path, BitDepth::Eight)?;
     save_png(&mask.to_image(), &mask_path, BitDepth::Eight)?;
-    let seed = args.seed.to_string();
+    let seed = seed.to_string();
     let mut argv: Vec<&OsStr> = vec![command.as_ref(), photo_path.as_os_str(), "--mask".as_ref(), mask_path.as_os_str()];
-    argv.extend(["--out".as_ref(), dir.as_os_str(), "--seed".as_ref(), seed.as_ref()]);
+    argv.extend(["--out".as_ref(), out.as_os_str(), "--seed".as_ref(), seed.as_ref()]);
     argv.extend(extra.iter().map(OsStr::new));
     run_command(&argv)
 }
 
 /// A procedural drying-wood material (64 x 64, 11 time steps) fitted with
 /// cubics, enlarged to 128 x 128 and rendered at 6 times into OUT/stbrdf/.
-fn stbrdf_demo(args: &Args) -> Result<()> {
+fn stbrdf_demo(dir: &Path, seed: u64) -> Result<()> {
     use patina::stbrdf::{enlarge, fit, procedural};
-    let dir = args.out.join("stbrdf");
-    let (steps, times) = procedural::drying_wood(64, 64, 11, args.seed);
+    let dir = dir.join("stbrdf");
+    let (steps, times) = procedural::drying_wood(64, 64, 11, seed);
     let fitted = fit::fit(&steps, &times, 3, procedural::drying_wood_params())?;
     fitted.material.save(&dir.join("material"))?;
-    let big = enlarge::enlarge(&fitted.material, (128, 128), None, None, &OptimizeParams::default(), args.seed, None)?;
+    let big = enlarge::enlarge(&fitted.material, (128, 128), None, None, &OptimizeParams::default(), seed, None)?;
     let big_dir = dir.join("enlarged");
     big.save(&big_dir)?;
     let renders = dir.join("renders");
@@ -131,19 +135,19 @@ fn run_command(argv: &[&OsStr]) -> Result<()> {
 
 /// A procedural rusting-steel time-lapse (96 x 96, 40 frames) enlarged to
 /// 192 x 192 with time jitter, written to OUT/ttf/ like `patina ttf`.
-fn ttf_demo(args: &Args) -> Result<()> {
-    let dir = args.out.join("ttf");
-    let input_dir = dir.join("input");
+fn ttf_demo(dir: &Path, seed: u64) -> Result<()> {
+    let input_dir = dir.join("samples").join("ttf");
     mkdir(&input_dir)?;
-    for (i, frame) in samples::rusting_timelapse(96, 96, 40, args.seed).iter().enumerate() {
+    for (i, frame) in samples::rusting_timelapse(96, 96, 40, seed).iter().enumerate() {
         save_png(frame, input_dir.join(format!("{i:03}.png")), BitDepth::Eight)?;
     }
-    let seed = args.seed.to_string();
+    let out = dir.join("ttf");
+    let seed = seed.to_string();
     run_command(&[
         "ttf".as_ref(),
         input_dir.as_os_str(),
         "--out".as_ref(),
-        dir.as_os_str(),
+        out.as_os_str(),
         "--size".as_ref(),
         "192x192".as_ref(),
         "--jitter".as_ref(),
@@ -156,13 +160,12 @@ fn ttf_demo(args: &Args) -> Result<()> {
 
 /// The flagship: glazed tiles with rust stains, aged back to intact and
 /// forward to more rust, written to OUT/weather/ like `patina weather`.
-fn weather_demo(args: &Args) -> Result<()> {
-    let dir = args.out.join("weather");
-    let clean = samples::tiles(192, 192, args.seed);
-    let (input, _) = samples::weather(&clean, samples::Weathering::Rust, 0.1, args.seed ^ 0x5eed);
-    mkdir(&dir)?;
-    let input_path = dir.join("input.png");
+fn weather_demo(dir: &Path, seed: u64) -> Result<()> {
+    let clean = samples::tiles(192, 192, seed);
+    let (input, _) = samples::weather(&clean, samples::Weathering::Rust, 0.1, seed ^ 0x5eed);
+    let input_path = dir.join("samples").join("weather.png");
     save_png(&input, &input_path, BitDepth::Eight)?;
-    let seed = args.seed.to_string();
-    run_command(&["weather".as_ref(), input_path.as_os_str(), "--out".as_ref(), dir.as_os_str(), "--seed".as_ref(), seed.as_ref()])
+    let out = dir.join("weather");
+    let seed = seed.to_string();
+    run_command(&["weather".as_ref(), input_path.as_os_str(), "--out".as_ref(), out.as_os_str(), "--seed".as_ref(), seed.as_ref()])
 }

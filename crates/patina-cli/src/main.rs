@@ -3,6 +3,8 @@
 
 mod decay;
 mod demo;
+mod flags;
+mod input;
 mod metrics;
 mod output;
 mod progress;
@@ -20,6 +22,9 @@ use std::process::ExitCode;
 #[derive(Parser)]
 #[command(name = "patina", version, about, long_about = None)]
 struct Cli {
+    /// Read NaN and infinite samples in EXR inputs as 0 (and say how many) instead of refusing the file.
+    #[arg(long, global = true)]
+    allow_nonfinite: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -68,10 +73,13 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    input::configure(patina::image::io::LoadOptions { allow_nonfinite: cli.allow_nonfinite });
     match dispatch(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("patina: {e}");
+            // One line, whatever the error's text holds.
+            let text = e.to_string();
+            eprintln!("patina: {}", text.split_whitespace().collect::<Vec<_>>().join(" "));
             ExitCode::from(if e.is_usage() { 2 } else { 1 })
         }
     }

@@ -1,7 +1,6 @@
 //! `patina metrics`: quality measures on images.
 
 use crate::output::parse_size;
-use patina::image::io;
 use patina::{metrics, Error, Result};
 use std::path::PathBuf;
 
@@ -23,7 +22,7 @@ pub struct StationarityArgs {
     /// Image to measure.
     pub image: PathBuf,
     /// Number of random crop pairs.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 64, value_parser = |s: &str| crate::flags::count(s, 1, 10000))]
     pub pairs: usize,
     /// Crop size WIDTHxHEIGHT [default: a quarter of the image's width and height]. Use one fixed size to compare images of different sizes.
     #[arg(long, value_parser = parse_size)]
@@ -36,7 +35,7 @@ pub struct StationarityArgs {
 pub fn run(args: Args) -> Result<()> {
     match args.measure {
         Measure::Stationarity(a) => {
-            let img = io::load(&a.image)?;
+            let img = crate::input::load(&a.image)?;
             let s = metrics::stationarity(&img, a.crop, a.pairs, a.seed)?;
             let line = serde_json::to_string(&s).map_err(|e| Error::Internal(e.to_string()))?;
             println!("{line}");

@@ -92,8 +92,8 @@ fn resolved(p: &Path) -> PathBuf {
     }
 }
 
-/// Refuse to write any of `outputs` over one of `inputs`, and check each
-/// output's folder exists.
+/// Refuse to write any of the single-file `outputs` over one of `inputs`,
+/// and check each output's folder exists.
 pub fn check_outputs(outputs: &[&Path], inputs: &[&Path]) -> Result<()> {
     for out in outputs {
         let r = resolved(out);
@@ -109,6 +109,134 @@ pub fn check_outputs(outputs: &[&Path], inputs: &[&Path]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// An output folder written as a transaction: everything goes into a
+/// staging folder beside OUT (`.NAME.patina-staging-PID`), which is renamed
+/// into place by [`OutDir::commit`] once every file is written. A failure or
+/// a kill before then leaves OUT as it was (absent, or the previous complete
+/// run); the staging folder is removed on failure, and a later run removes
+/// those of processes that no longer exist.
+pub struct OutDir {
+    target: PathBuf,
+    staging: PathBuf,
+    committed: bool,
+}
+
+/// Name prefix of the hidden folders patina keeps beside OUT.
+fn hidden_prefix(name: &std::ffi::OsStr) -> String {
+    format!(".{}.patina-", name.to_string_lossy())
+}
+
+impl OutDir {
+    /// Start writing `out`. Refused (as bad input) when OUT is a file, when
+    /// it is, holds or lies inside an input, when its parent folder does not
+    /// exist, or when it exists and is not empty, unless `overwrite` is set
+    /// and it is a folder patina wrote (it has patina's `manifest.json`).
+    pub fn begin(out: &Path, inputs: &[&Path], overwrite: bool) -> Result<OutDir> {
+        let target = resolved(out);
+        let name = target.file_name().ok_or_else(|| Error::invalid(format!("{} is not a folder name", out.display())))?.to_owned();
+        let parent = target.parent().ok_or_else(|| Error::invalid(format!("{} is not a folder name", out.display())))?.to_path_buf();
+        if !parent.is_dir() {
+            return Err(Error::invalid(format!("output folder {}'s parent does not exist", out.display())));
+        }
+        if target.exists() && !target.is_dir() {
+            return Err(Error::invalid(format!("output {} exists and is not a folder", out.display())));
+        }
+        for input in inputs {
+            let i = resolved(input);
+            if i == target || i.starts_with(&target) {
+                return Err(Error::invalid(format!("output folder {} would overwrite input {}", out.display(), input.display())));
+            }
+            if i.is_dir() && target.starts_with(&i) {
+                return Err(Error::invalid(format!("output folder {} lies inside input folder {}", out.display(), input.display())));
+            }
+        }
+        let empty = target.read_dir().map(|mut d| d.next().is_none()).unwrap_or(true);
+        if target.is_dir() && !empty {
+            if !overwrite {
+                return Err(Error::invalid(format!("output folder {} exists; pass --overwrite to replace it", out.display())));
+            }
+            if !written_by_patina(&target) {
+                return Err(Error::invalid(format!(
+                    "output folder {} was not written by patina (no patina manifest.json); refusing to replace it",
+                    out.display()
+                )));
+            }
+        }
+        remove_stale(&parent, &name);
+        let staging = parent.join(format!("{}staging-{}", hidden_prefix(&name), std::process::id()));
+        let _ = std::fs::remove_dir_all(&staging);
+        std::fs::create_dir(&staging).map_err(|source| Error::Write { path: staging.clone(), source })?;
+        Ok(OutDir { target, staging, committed: false })
+    }
+
+    /// The folder to write into until [`OutDir::commit`].
+    pub fn path(&self) -> &Path {
+        &self.staging
+    }
+
+    /// Move the finished folder into place, replacing the previous one.
+    pub fn commit(mut self) -> Result<()> {
+        let werr = |path: &Path| {
+            let path = path.to_path_buf();
+            move |source| Error::Write { path, source }
+        };
+        if self.target.exists() {
+            let name = self.target.file_name().unwrap_or_default().to_owned();
+            let old = self.target.with_file_name(format!("{}old-{}", hidden_prefix(&name), std::process::id()));
+            let _ = std::fs::remove_dir_all(&old);
+            std::fs::rename(&self.target, &old).map_err(werr(&self.target))?;
+            if let Err(e) = std::fs::rename(&self.staging, &self.target) {
+                let _ = std::fs::rename(&old, &self.target);
+                return Err(werr(&self.target)(e));
+            }
+            let _ = std::fs::remove_dir_all(&old);
+        } else {
+            std::fs::rename(&self.staging, &self.target).map_err(werr(&self.target))?;
+        }
+        self.committed = true;
+        Ok(())
+    }
+}
+
+impl Drop for OutDir {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_dir_all(&self.staging);
+        }
+    }
+}
+
+/// True when `dir/manifest.json` is one patina wrote.
+fn written_by_patina(dir: &Path) -> bool {
+    std::fs::read(dir.join("manifest.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
+        .is_some_and(|m| m["tool"]["name"] == "patina")
+}
+
+/// Remove the staging and old folders beside `parent/name` left by patina
+/// processes that no longer run (killed, or the machine went down).
+fn remove_stale(parent: &Path, name: &std::ffi::OsStr) {
+    let prefix = hidden_prefix(name);
+    let Ok(entries) = std::fs::read_dir(parent) else { return };
+    for e in entries.flatten() {
+        let file = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = file.strip_prefix(&prefix) else { continue };
+        let pid = rest.strip_prefix("staging-").or_else(|| rest.strip_prefix("old-")).and_then(|p| p.parse::<u32>().ok());
+        if pid.is_some_and(|p| p != std::process::id() && !process_alive(p)) {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
+/// Whether process `pid` exists. Where the system cannot tell (no /proc),
+/// a leftover folder is assumed live and kept: better a stray folder than
+/// deleting another run's work.
+fn process_alive(pid: u32) -> bool {
+    let proc = Path::new("/proc");
+    !proc.is_dir() || proc.join(pid.to_string()).exists()
 }
 
 /// `path` with `.manifest.json` appended (OUT -> OUT.manifest.json).
@@ -146,22 +274,6 @@ pub fn write_sequence(dir: &Path, frames: &[(f32, &Image)], gif_delay_ms: u32, m
     save_gif(&images, dir.join("sequence.gif"), gif_delay_ms)?;
     manifest.outputs.push("sequence.gif".into());
     Ok(())
-}
-
-/// Paths inside `dir` that a sequence run writes.
-pub fn sequence_outputs(dir: &Path, frames: usize, extra: &[&str]) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = extra.iter().map(|n| dir.join(n)).collect();
-    v.extend((0..frames).map(|i| dir.join("frames").join(format!("{i:03}.png"))));
-    v.push(dir.join("sequence.gif"));
-    v.push(dir.join("manifest.json"));
-    v
-}
-
-/// [`check_outputs`] for the outputs whose folder already exists (the
-/// others cannot be inputs).
-pub fn refuse_overwrite(outputs: &[PathBuf], inputs: &[&Path]) -> Result<()> {
-    let outs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).filter(|p| p.parent().is_some_and(Path::is_dir)).collect();
-    check_outputs(&outs, inputs)
 }
 
 /// Two images side by side, top-aligned, on dark grey (8 px apart), with

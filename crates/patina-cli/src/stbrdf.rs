@@ -1,11 +1,11 @@
 //! `patina stbrdf fit|enlarge|transfer|render`: spatio-temporal BRDF
 //! materials (Meister et al. 2021).
 
-use crate::output::{check_outputs, mkdir, parse_size, refuse_overwrite, side_by_side, Manifest, Stopwatch};
+use crate::output::{parse_size, side_by_side, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
 use crate::synth::GuideArgs;
 use patina::image::io::{self, save_gif, save_png, BitDepth};
-use patina::image::sequence::{load_sequence, natural_cmp};
+use patina::image::sequence::{load_sequence, natural_cmp, MAX_FRAMES};
 use patina::image::Image;
 use patina::stbrdf::{enlarge, fit, render, shader, transfer, Material, Param};
 use patina::synth::OptimizeParams;
@@ -43,11 +43,14 @@ pub struct FitArgs {
     /// Output material folder ({Name}-{i}.exr and material.json).
     #[arg(short, long)]
     pub out: PathBuf,
+    /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
+    #[arg(long)]
+    pub overwrite: bool,
     /// Polynomial degree d (1..6).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = |s: &str| crate::flags::count(s, 1, 6))]
     pub degree: usize,
     /// Times of the steps, comma-separated in [0, 1] [default: evenly spaced]
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0))]
     pub times: Option<Vec<f32>>,
     /// The Specular maps are STAF-style (coupled with a Gaussian lobe of width Roughness): decouple them first (eq. 9).
     #[arg(long)]
@@ -61,14 +64,17 @@ pub struct EnlargeArgs {
     /// Output material folder.
     #[arg(short, long)]
     pub out: PathBuf,
+    /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
+    #[arg(long)]
+    pub overwrite: bool,
     /// Scale factor for both sides (ignored with --size).
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 64.0))]
     pub scale: f32,
     /// Output size WxH instead of --scale.
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(usize, usize)>,
     /// Weight per parameter, comma-separated in the material's order [default: 1 each]
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub weights: Option<Vec<f32>>,
     #[command(flatten)]
     pub guide: GuideArgs,
@@ -85,13 +91,16 @@ pub struct TransferArgs {
     #[arg(long)]
     pub target: PathBuf,
     /// The time at which the result equals the target exactly.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0))]
     pub t0: f32,
     /// Output material folder.
     #[arg(short, long)]
     pub out: PathBuf,
+    /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
+    #[arg(long)]
+    pub overwrite: bool,
     /// Weight of the equalised-luminance guides.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub guide_weight: f32,
     /// ratio: scale the change by target / material at t0 (eq. 16; wetting, dulling). offset: add the change unscaled (snow, moss, paint).
     #[arg(long, default_value = "ratio", value_parser = ["ratio", "offset"])]
@@ -108,14 +117,17 @@ pub struct RenderArgs {
     /// Output folder.
     #[arg(short, long)]
     pub out: PathBuf,
+    /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
+    #[arg(long)]
+    pub overwrite: bool,
     /// Times to render, comma-separated in [0, 1] (overrides --frames).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0))]
     pub times: Option<Vec<f32>>,
     /// Number of evenly spaced times over [0, 1].
-    #[arg(long, default_value_t = 11)]
+    #[arg(long, default_value_t = 11, value_parser = |s: &str| crate::flags::count(s, 1, 1000))]
     pub frames: usize,
     /// Side of the sphere preview in pixels.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, value_parser = |s: &str| crate::flags::count(s, 8, 4096))]
     pub sphere: usize,
     /// Milliseconds per frame in sequence.gif.
     #[arg(long, default_value_t = 150)]
@@ -131,14 +143,6 @@ pub fn run(args: Args) -> Result<()> {
     }
 }
 
-/// Files a material folder holds after saving `m`.
-fn material_outputs(dir: &Path, m: &Material) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = m.params.iter().flat_map(|p| (0..=m.degree).map(move |k| dir.join(format!("{}-{k}.exr", p.name)))).collect();
-    v.push(dir.join("material.json"));
-    v.push(dir.join("manifest.json"));
-    v
-}
-
 /// The parameter a file stem names, with its canonical spelling.
 fn param_name(stem: &str) -> String {
     let lower = stem.to_lowercase();
@@ -151,21 +155,36 @@ fn param_name(stem: &str) -> String {
 }
 
 /// Parameter maps per time step from a folder of subfolders, or an
-/// albedo-only material from a folder of frames.
-fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>, Vec<PathBuf>)> {
+/// albedo-only material from a folder of frames. A folder holding both is
+/// ambiguous and refused, naming both.
+fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>)> {
     let entries = std::fs::read_dir(dir).map_err(|source| Error::Read { path: dir.into(), source })?;
-    let mut subdirs: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_dir()).collect();
+    let paths: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
+    let mut subdirs: Vec<PathBuf> = paths.iter().filter(|p| p.is_dir()).cloned().collect();
     subdirs.sort_by(|a, b| natural_cmp(&a.to_string_lossy(), &b.to_string_lossy()));
+    let image_file = |p: &&PathBuf| {
+        p.is_file() && p.extension().and_then(|e| e.to_str()).is_some_and(|e| ["png", "jpg", "jpeg", "exr", "gif"].contains(&e.to_lowercase().as_str()))
+    };
+    if let (Some(sub), Some(file)) = (subdirs.first(), paths.iter().find(image_file)) {
+        return Err(Error::invalid(format!(
+            "{} holds both image files ({}) and subfolders ({}): give a folder of frames or a folder of time-step subfolders",
+            dir.display(),
+            file.display(),
+            sub.display()
+        )));
+    }
+    if subdirs.len() > MAX_FRAMES {
+        return Err(Error::invalid(format!("{} holds {} time steps; patina reads at most {MAX_FRAMES}", dir.display(), subdirs.len())));
+    }
     if subdirs.is_empty() {
         let seq = load_sequence(dir)?;
         let frames = seq.frames.into_iter().map(|f| if f.channels() >= 3 { f.select_channels(0..3) } else { f }).collect::<Vec<_>>();
         let c = frames[0].channels();
-        return Ok((frames, vec![Param { name: "Diffuse".into(), channels: c }], seq.names.iter().map(PathBuf::from).collect()));
+        return Ok((frames, vec![Param { name: "Diffuse".into(), channels: c }]));
     }
     let mut params: Vec<Param> = Vec::new();
     let mut files_of_first: Vec<String> = Vec::new();
     let mut steps = Vec::new();
-    let mut inputs = Vec::new();
     for (i, sub) in subdirs.iter().enumerate() {
         let mut files: Vec<PathBuf> = std::fs::read_dir(sub)
             .map_err(|source| Error::Read { path: sub.clone(), source })?
@@ -190,7 +209,7 @@ fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>, Vec<PathBuf>)> {
                 files_of_first
             )));
         }
-        let maps = files.iter().map(io::load).collect::<Result<Vec<_>>>()?;
+        let maps = files.iter().map(crate::input::load).collect::<Result<Vec<_>>>()?;
         if i == 0 {
             params = stems
                 .iter()
@@ -205,18 +224,17 @@ fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>, Vec<PathBuf>)> {
         let refs: Vec<&Image> = parts.iter().collect();
         let step = Image::concat_channels(&refs).map_err(|e| Error::invalid(format!("{}: {e}", sub.display())))?;
         steps.push(step);
-        inputs.extend(files);
     }
-    Ok((steps, params, inputs))
+    Ok((steps, params))
 }
 
 fn run_fit(args: FitArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
-    let (mut steps, params, inputs) = load_steps(&args.input)?;
+    let out = OutDir::begin(&args.out, &[&args.input], args.overwrite)?;
+    let (mut steps, params) = load_steps(&args.input)?;
     if args.staf {
         fit::decouple_frames(&mut steps, &params)?;
     }
-    let input_refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     let n = steps.len();
     let times = match &args.times {
         Some(t) if t.len() != n => return Err(Error::invalid(format!("--times lists {} times for {n} time steps", t.len()))),
@@ -227,8 +245,7 @@ fn run_fit(args: FitArgs) -> Result<()> {
     let fitted = fit::fit(&steps, &times, args.degree, params)?;
     let mut manifest = Manifest::new("stbrdf fit", 0);
     manifest.timings_ms.insert("fit".into(), clock.lap());
-    refuse_overwrite(&material_outputs(&args.out, &fitted.material), &input_refs)?;
-    fitted.material.save(&args.out)?;
+    fitted.material.save(out.path())?;
     manifest.timings_ms.insert("save".into(), clock.lap());
     let mut channel = 0;
     let mut rms = serde_json::Map::new();
@@ -239,26 +256,22 @@ fn run_fit(args: FitArgs) -> Result<()> {
     manifest.metrics.insert("rms".into(), serde_json::Value::Object(rms));
     manifest.params = json!({ "degree": args.degree, "times": times, "staf_decoupled": args.staf, "params": fitted.material.params.iter().map(|p| json!({"name": p.name, "channels": p.channels})).collect::<Vec<_>>() });
     manifest.inputs = vec![args.input.clone()];
-    manifest.write(&args.out.join("manifest.json"))?;
+    manifest.write(&out.path().join("manifest.json"))?;
+    out.commit()?;
     eprintln!("patina stbrdf fit: {} time steps -> degree-{} material in {}", n, args.degree, args.out.display());
     Ok(())
 }
 
 fn run_enlarge(args: EnlargeArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
+    let inputs: Vec<&Path> = std::iter::once(args.material.as_path()).chain(args.guide.paths()).collect();
+    let out = OutDir::begin(&args.out, &inputs, args.overwrite)?;
     let material = Material::load(&args.material)?;
     let (w, h) = material.size();
-    let size = match args.size {
-        Some(s) => s,
-        None if args.scale.is_finite() && args.scale > 0.0 => {
-            (((w as f32 * args.scale).round() as usize).max(1), ((h as f32 * args.scale).round() as usize).max(1))
-        }
-        None => return Err(Error::invalid(format!("--scale must be positive, got {}", args.scale))),
-    };
-    refuse_overwrite(&material_outputs(&args.out, &material), &[&args.material])?;
+    let size = args.size.unwrap_or((((w as f32 * args.scale).round() as usize).max(1), ((h as f32 * args.scale).round() as usize).max(1)));
     let guides = args.guide.load()?;
     let params = OptimizeParams::default();
-    let out = with_bar("enlarge", |report| {
+    let enlarged = with_bar("enlarge", |report| {
         enlarge::enlarge(
             &material,
             size,
@@ -271,53 +284,46 @@ fn run_enlarge(args: EnlargeArgs) -> Result<()> {
     })?;
     let mut manifest = Manifest::new("stbrdf enlarge", args.seed);
     manifest.timings_ms.insert("enlarge".into(), clock.lap());
-    out.save(&args.out)?;
+    enlarged.save(out.path())?;
     manifest.params =
         json!({ "size": [size.0, size.1], "weights": args.weights, "guide_weight": args.guide.guide_weight, "optimize": params });
     manifest.inputs = std::iter::once(args.material.as_path()).chain(args.guide.paths()).map(Path::to_path_buf).collect();
-    manifest.write(&args.out.join("manifest.json"))?;
+    manifest.write(&out.path().join("manifest.json"))?;
+    out.commit()?;
     eprintln!("patina stbrdf enlarge: {}x{} -> {}x{} in {}", w, h, size.0, size.1, args.out.display());
     Ok(())
 }
 
 fn run_transfer(args: TransferArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
+    let out = OutDir::begin(&args.out, &[&args.material, &args.target], args.overwrite)?;
     let material = Material::load(&args.material)?;
-    let target = io::load(&args.target)?;
-    refuse_overwrite(&material_outputs(&args.out, &material), &[&args.material, &args.target])?;
+    let target = crate::input::load(&args.target)?;
     let mode = if args.mode == "offset" { transfer::Mode::Offset } else { transfer::Mode::Ratio };
     let params = transfer::TransferParams { t0: args.t0, guide_weight: args.guide_weight, mode, ..Default::default() };
-    let out = with_bar("transfer", |report| transfer::transfer(&material, &target, &params, args.seed, Some(report)))?;
+    let moved = with_bar("transfer", |report| transfer::transfer(&material, &target, &params, args.seed, Some(report)))?;
     let mut manifest = Manifest::new("stbrdf transfer", args.seed);
     manifest.timings_ms.insert("transfer".into(), clock.lap());
-    out.save(&args.out)?;
+    moved.save(out.path())?;
     manifest.params = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
     manifest.inputs = vec![args.material.clone(), args.target.clone()];
-    manifest.write(&args.out.join("manifest.json"))?;
+    manifest.write(&out.path().join("manifest.json"))?;
+    out.commit()?;
     eprintln!("patina stbrdf transfer: wrote {}", args.out.display());
     Ok(())
 }
 
 fn run_render(args: RenderArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
+    let out = OutDir::begin(&args.out, &[&args.material], args.overwrite)?;
+    let dir = out.path();
     let material = Material::load(&args.material)?;
     let times: Vec<f32> = match &args.times {
-        Some(t) if t.is_empty() || t.iter().any(|v| !(0.0..=1.0).contains(v)) => {
-            return Err(Error::invalid("--times must list times in [0, 1]"))
-        }
+        Some(t) if t.is_empty() || t.len() > 1000 => return Err(Error::invalid("--times must list 1 to 1000 times")),
         Some(t) => t.clone(),
-        None if args.frames == 0 => return Err(Error::invalid("--frames must be at least 1")),
         None => (0..args.frames).map(|i| if args.frames > 1 { i as f32 / (args.frames - 1) as f32 } else { 0.0 }).collect(),
     };
-    if args.sphere < 8 || args.sphere > 4096 {
-        return Err(Error::invalid(format!("--sphere must be 8..=4096 pixels, got {}", args.sphere)));
-    }
-    let outputs = [args.out.join("material.wgsl"), args.out.join("material.glsl"), args.out.join("sequence.gif")];
-    check_outputs(
-        &outputs.iter().map(PathBuf::as_path).filter(|p| p.parent().is_some_and(Path::is_dir)).collect::<Vec<_>>(),
-        &[&args.material],
-    )?;
-    mkdir(&args.out.join("frames"))?;
+    crate::output::mkdir(&dir.join("frames"))?;
     let mut manifest = Manifest::new("stbrdf render", 0);
     let lighting = render::Lighting::default();
     let mut previews = Vec::new();
@@ -330,24 +336,24 @@ fn run_render(args: RenderArgs) -> Result<()> {
                 other => other.to_lowercase(),
             };
             let rel = PathBuf::from("frames").join(format!("{i:03}_{name}.png"));
-            save_png(&frame.select_channels(r), args.out.join(&rel), BitDepth::Eight)?;
+            save_png(&frame.select_channels(r), dir.join(&rel), BitDepth::Eight)?;
             manifest.outputs.push(rel);
         }
         let plane = render::plane(&material, t, &lighting);
         let sphere = render::sphere(&material, t, args.sphere, &lighting);
         for (kind, img) in [("plane", &plane), ("sphere", &sphere)] {
             let rel = PathBuf::from("frames").join(format!("{i:03}_{kind}.png"));
-            save_png(img, args.out.join(&rel), BitDepth::Eight)?;
+            save_png(img, dir.join(&rel), BitDepth::Eight)?;
             manifest.frames.push(crate::output::FrameEntry { t, path: rel });
         }
         previews.push(side_by_side(&plane, &sphere));
     }
-    save_gif(&previews.iter().collect::<Vec<_>>(), args.out.join("sequence.gif"), args.gif_delay)?;
-    io::write_atomic(&args.out.join("material.wgsl"), |b| {
+    save_gif(&previews.iter().collect::<Vec<_>>(), dir.join("sequence.gif"), args.gif_delay)?;
+    io::write_atomic(&dir.join("material.wgsl"), |b| {
         b.extend_from_slice(shader::wgsl(&material).as_bytes());
         Ok(())
     })?;
-    io::write_atomic(&args.out.join("material.glsl"), |b| {
+    io::write_atomic(&dir.join("material.glsl"), |b| {
         b.extend_from_slice(shader::glsl(&material).as_bytes());
         Ok(())
     })?;
@@ -356,7 +362,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
     manifest.params =
         json!({ "times": times, "sphere": args.sphere, "light": lighting.light, "view": lighting.view, "ambient": lighting.ambient });
     manifest.inputs = vec![args.material.clone()];
-    manifest.write(&args.out.join("manifest.json"))?;
+    manifest.write(&dir.join("manifest.json"))?;
+    out.commit()?;
     eprintln!("patina stbrdf render: {} times to {}", times.len(), args.out.display());
     Ok(())
 }

@@ -1,8 +1,8 @@
 //! `patina stone`: stone weathering in a photograph (Xue et al. 2011).
 
-use crate::output::{mkdir, refuse_overwrite, sequence_outputs, write_sequence, Manifest, Stopwatch};
+use crate::output::{write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
-use patina::image::io::{self, save_png, BitDepth};
+use patina::image::io::{save_png, BitDepth};
 use patina::image::{Image, Mask};
 use patina::stone::{self, segment, StoneParams};
 use patina::{Error, Result};
@@ -29,28 +29,28 @@ pub struct Args {
     #[arg(short, long)]
     pub out: PathBuf,
     /// Times to render, comma-separated, ascending, >= 0 (the paper's scale: 100 = heavily weathered).
-    #[arg(long, value_delimiter = ',', default_value = "0,25,50,100")]
+    #[arg(long, value_delimiter = ',', default_value = "0,25,50,100", allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 10000.0))]
     pub times: Vec<f32>,
     /// eta: tendency exponent, d = (v / v*)^eta.
-    #[arg(long, default_value_t = 0.6)]
+    #[arg(long, default_value_t = 0.6, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 10.0))]
     pub eta: f32,
     /// m: tendency window radius r = sqrt(object pixels) / m.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = 60.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 10000.0))]
     pub m: f32,
     /// k: smoothing speed, w = exp(-k mean d t).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 10.0))]
     pub k: f32,
     /// n: minimum patch size = object pixels / n.
-    #[arg(long, default_value_t = 3200.0)]
+    #[arg(long, default_value_t = 3200.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1.0e9))]
     pub n: f32,
     /// Graph-segmentation scale K (Felzenszwalb-Huttenlocher; tendency in 0..255 units).
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1.0e6))]
     pub seg_k: f32,
     /// w_d: how strongly patch matching prefers calm (low-tendency) source patches.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1000.0))]
     pub wd: f32,
     /// nu: roughening weight beta = d^nu.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub nu: f32,
     /// Photo of rough stone to learn the roughening fractal from [default: a built-in procedural sample].
     #[arg(long)]
@@ -62,11 +62,14 @@ pub struct Args {
     #[arg(long)]
     pub no_erosion: bool,
     /// epsilon: erosion iterations = epsilon sqrt(object pixels) t.
-    #[arg(long, default_value_t = 0.0002)]
+    #[arg(long, default_value_t = 0.0002, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0))]
     pub erosion_speed: f32,
     /// Random seed: the same inputs and seed give the same bytes.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -75,9 +78,8 @@ pub fn run(args: Args) -> Result<()> {
     let inputs: Vec<&Path> =
         [Some(args.photo.as_path()), args.mask.as_deref(), args.rough_sample.as_deref()].into_iter().flatten().collect();
     let masks: Vec<String> = (0..args.times.len()).map(|i| format!("mask_t{i:03}.png")).collect();
-    let mut extra = vec!["tendency.png", "segments.png"];
-    extra.extend(masks.iter().map(String::as_str));
-    refuse_overwrite(&sequence_outputs(&args.out, args.times.len(), &extra), &inputs)?;
+    let out = OutDir::begin(&args.out, &inputs, args.overwrite)?;
+    let dir = out.path();
     let params = StoneParams {
         eta: args.eta,
         m: args.m,
@@ -91,9 +93,9 @@ pub fn run(args: Args) -> Result<()> {
         erosion_speed: args.erosion_speed,
         ..StoneParams::default()
     };
-    let photo = io::load(&args.photo)?;
-    let mask = args.mask.as_ref().map(|m| io::load(m).map(|img| Mask::from_image(&patina::image::color::luminance(&img)))).transpose()?;
-    let sample = args.rough_sample.as_ref().map(io::load).transpose()?;
+    let photo = crate::input::load(&args.photo)?;
+    let mask = args.mask.as_ref().map(|m| crate::input::load(m).map(|img| Mask::from_image(&patina::image::color::luminance(&img)))).transpose()?;
+    let sample = args.rough_sample.as_ref().map(crate::input::load).transpose()?;
     manifest.timings_ms.insert("load".into(), clock.lap());
 
     let prepared = stone::prepare(&photo, mask.as_ref(), sample.as_ref(), &params)?;
@@ -101,19 +103,18 @@ pub fn run(args: Args) -> Result<()> {
     let frames = with_bar("stone", |report| stone::sequence(&prepared, &args.times, args.seed, Some(report)))?;
     manifest.timings_ms.insert("frames".into(), clock.lap());
 
-    mkdir(&args.out)?;
-    save_png(&prepared.tendency, args.out.join("tendency.png"), BitDepth::Eight)?;
-    save_png(&segment::false_colour(&prepared.patches, prepared.mask.size()), args.out.join("segments.png"), BitDepth::Eight)?;
+    save_png(&prepared.tendency, dir.join("tendency.png"), BitDepth::Eight)?;
+    save_png(&segment::false_colour(&prepared.patches, prepared.mask.size()), dir.join("segments.png"), BitDepth::Eight)?;
     manifest.outputs.extend(["tendency.png".into(), "segments.png".into()]);
     let eroding = frames.iter().any(|f| f.mask != prepared.mask);
     if eroding {
         for (f, name) in frames.iter().zip(&masks) {
-            save_png(&f.mask.to_image(), args.out.join(name), BitDepth::Eight)?;
+            save_png(&f.mask.to_image(), dir.join(name), BitDepth::Eight)?;
             manifest.outputs.push(name.into());
         }
     }
     let timed: Vec<(f32, &Image)> = frames.iter().map(|f| (f.t, &f.image)).collect();
-    write_sequence(&args.out, &timed, GIF_DELAY_MS, &mut manifest)?;
+    write_sequence(dir, &timed, GIF_DELAY_MS, &mut manifest)?;
     manifest.timings_ms.insert("save".into(), clock.lap());
 
     let mut p = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
@@ -125,7 +126,8 @@ pub fn run(args: Args) -> Result<()> {
     manifest.params = p;
     manifest.metrics.insert("object_pixels".into(), json!(frames.iter().map(|f| f.mask.count()).collect::<Vec<_>>()));
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
-    manifest.write(&args.out.join("manifest.json"))?;
+    manifest.write(&dir.join("manifest.json"))?;
+    out.commit()?;
     println!("patina stone: {} frames in {}", frames.len(), args.out.display());
     Ok(())
 }

@@ -70,19 +70,19 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Patch side in pixels, odd (optimize).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, value_parser = |s: &str| crate::flags::count(s, 3, 63))]
     pub patch: usize,
     /// Search + vote iterations per pyramid level (optimize).
-    #[arg(long, default_value_t = 6)]
+    #[arg(long, default_value_t = 6, value_parser = |s: &str| crate::flags::count(s, 1, 100))]
     pub iters: usize,
     /// PatchMatch sweeps per search (optimize).
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 4, value_parser = |s: &str| crate::flags::count(s, 1, 64))]
     pub pm_iters: usize,
     /// Pyramid levels (optimize) [default: as many as keep the coarsest level 4 patches wide].
-    #[arg(long)]
+    #[arg(long, value_parser = |s: &str| crate::flags::count(s, 1, 16))]
     pub levels: Option<usize>,
     /// Uniformity weight: penalises reusing the same exemplar patches (optimize; 0 = off; EbSynth's 3500 in 8-bit units).
-    #[arg(long, default_value_t = 3500.0 / 65025.0)]
+    #[arg(long, default_value_t = 3500.0 / 65025.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub uniformity: f32,
     /// How overlapping patches are combined (optimize).
     #[arg(long, value_enum, default_value_t = VoteArg::Mean)]
@@ -91,7 +91,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = InitArg::Quilt)]
     pub init: InitArg,
     /// Stop threshold: re-search only pixels whose patch changed by at least this much after a vote (optimize; 0 = always; EbSynth's 5 of 255).
-    #[arg(long, default_value_t = 5.0 / 255.0)]
+    #[arg(long, default_value_t = 5.0 / 255.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0))]
     pub stop_threshold: f32,
     /// Block size, N or WxH (quilt) [default: a quarter of the exemplar's smaller side, within 8..64].
     #[arg(long, value_parser = parse_block)]
@@ -100,22 +100,22 @@ pub struct Args {
     #[arg(long, value_parser = parse_block)]
     pub overlap: Option<(usize, usize)>,
     /// Candidate blocks are those within (1 + tolerance) x the best overlap error (quilt).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub tolerance: f32,
     /// Never choose among fewer candidate blocks than this (quilt; prevents verbatim copying).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = |s: &str| crate::flags::count(s, 1, 1000))]
     pub min_candidates: usize,
     /// Reuse penalty: a candidate block's cost grows by this factor per block already taken from around the same exemplar spot (quilt; 0 = off, as in the paper).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub reuse: f32,
     /// Blend blocks linearly across the overlap instead of cutting along the minimum-error seam (quilt).
     #[arg(long)]
     pub no_cut: bool,
     /// Soften each minimum-error seam over this many pixels on either side (quilt; 0 = a hard cut).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = |s: &str| crate::flags::count(s, 0, 64))]
     pub feather: usize,
     /// Texture-transfer passes with guides, each with blocks a third smaller (quilt).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = |s: &str| crate::flags::count(s, 1, 10))]
     pub transfer_passes: usize,
     #[command(flatten)]
     pub guide: GuideArgs,
@@ -170,7 +170,7 @@ pub struct GuideArgs {
     #[arg(long, requires = "source_guide")]
     pub target_guide: Option<PathBuf>,
     /// Weight of the guide term against appearance.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub guide_weight: f32,
 }
 
@@ -183,7 +183,7 @@ impl GuideArgs {
     /// Load the (source, target) guides, if given.
     pub fn load(&self) -> Result<Option<(Image, Image)>> {
         match (&self.source_guide, &self.target_guide) {
-            (Some(s), Some(t)) => Ok(Some((io::load(s)?, io::load(t)?))),
+            (Some(s), Some(t)) => Ok(Some((crate::input::load(s)?, crate::input::load(t)?))),
             _ => Ok(None),
         }
     }
@@ -197,7 +197,7 @@ pub fn run(args: Args) -> Result<()> {
     inputs.extend(args.guide.paths());
     check_outputs(&[&args.out, &manifest_file], &inputs)?;
 
-    let exemplar = io::load(&args.exemplar)?;
+    let exemplar = crate::input::load(&args.exemplar)?;
     io::output_format(&args.out, exemplar.channels())?;
     let depth = if args.bits == 16 { BitDepth::Sixteen } else { BitDepth::Eight };
     let guides = args.guide.load()?;

@@ -1,9 +1,9 @@
 //! `patina ttf`: time-varying texture synthesis from a time-lapse
 //! (Enrique, Koudelka et al.).
 
-use crate::output::{mkdir, parse_size, refuse_overwrite, sequence_outputs, side_by_side, write_sequence, Manifest, Stopwatch};
+use crate::output::{parse_size, side_by_side, write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
-use patina::image::io::{self, save_gif, save_png, BitDepth};
+use patina::image::io::{save_gif, save_png, BitDepth};
 use patina::image::sequence::{load_sequence, Sequence};
 use patina::image::Image;
 use patina::synth::QuiltParams;
@@ -27,10 +27,10 @@ pub struct Args {
     #[arg(long, value_parser = parse_range)]
     pub frames: Option<Range<usize>>,
     /// Keep every K-th input frame (after --frames).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = |s: &str| crate::flags::count(s, 1, 2000))]
     pub step: usize,
     /// Singular vectors compared per colour channel (the SVD rank k of section 5.2); 0 compares every frame (slow).
-    #[arg(long, default_value_t = 15)]
+    #[arg(long, default_value_t = 15, value_parser = |s: &str| crate::flags::count(s, 0, 256))]
     pub rank: usize,
     /// Instead of a fixed rank, the smallest rank whose relative RMS reconstruction error is at most this (e.g. 0.05).
     #[arg(long, conflicts_with = "rank")]
@@ -39,16 +39,16 @@ pub struct Args {
     #[arg(long, value_parser = parse_size)]
     pub block: Option<(usize, usize)>,
     /// Overlap between neighbouring blocks, in pixels [default: a sixth of the block, at least 2]
-    #[arg(long)]
+    #[arg(long, value_parser = |s: &str| crate::flags::count(s, 1, 512))]
     pub overlap: Option<usize>,
     /// Candidate blocks: those within (1 + tolerance) x the best cost.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub tolerance: f32,
     /// Soften each seam over this many pixels on either side (0 = the paper's hard cut).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = |s: &str| crate::flags::count(s, 0, 64))]
     pub feather: usize,
     /// Time jitter E (eqs. 6-7): each block's clock drifts randomly by at most E frames, so copies of one block do not change in lockstep; 0 = off.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 2000.0))]
     pub jitter: f32,
     /// Divide out the input's low-frequency lighting (e.g. a flash hot spot) before synthesis (section 5.3).
     #[arg(long)]
@@ -57,7 +57,7 @@ pub struct Args {
     #[arg(long, requires = "flatten")]
     pub keep_gradient: bool,
     /// With --flatten: the low-pass Gaussian's sigma as a fraction of the input's larger side.
-    #[arg(long, default_value_t = 0.125, requires = "flatten")]
+    #[arg(long, default_value_t = 0.125, requires = "flatten", allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1.0))]
     pub flatten_sigma: f32,
     /// Sum the block cost over frames as they are (the paper's eq. 3). By default each frame is weighted by the inverse of its fine-detail contrast, so smooth early frames get seams as clean as busy late ones.
     #[arg(long)]
@@ -75,7 +75,7 @@ pub struct Args {
     #[arg(long)]
     pub rate_curvature: Option<PathBuf>,
     /// Multiplies the rate map (2 = twice as fast, and half as many frames).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 100.0))]
     pub rate_scale: f32,
     /// Also write compare.gif: the input and the output side by side.
     #[arg(long)]
@@ -86,6 +86,9 @@ pub struct Args {
     /// Random seed; the same inputs and seed give identical outputs.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 fn parse_range(s: &str) -> std::result::Result<Range<usize>, String> {
@@ -123,11 +126,11 @@ fn rate_map(args: &Args, size: Option<(usize, usize)>) -> Result<Option<RateMap>
         }
     };
     let map = if let Some(p) = &args.rate_map {
-        let img = io::load(p)?;
+        let img = crate::input::load(p)?;
         sized(&img, "rate map", p)?;
         Some(RateMap::from_image(&img, 1.0)?)
     } else if let Some(light) = args.rate_light {
-        let normals = args.normal_map.as_ref().map(io::load).transpose()?;
+        let normals = args.normal_map.as_ref().map(crate::input::load).transpose()?;
         if let (Some(n), Some(p)) = (&normals, &args.normal_map) {
             sized(n, "normal map", p)?;
         }
@@ -135,7 +138,7 @@ fn rate_map(args: &Args, size: Option<(usize, usize)>) -> Result<Option<RateMap>
             size.or(normals.as_ref().map(Image::size)).ok_or_else(|| Error::invalid("--rate-light needs --size or --normal-map"))?;
         Some(RateMap::from_light(w, h, light, normals.as_ref())?)
     } else if let Some(p) = &args.rate_curvature {
-        let img = io::load(p)?;
+        let img = crate::input::load(p)?;
         sized(&img, "height map", p)?;
         Some(RateMap::from_curvature(&img)?)
     } else {
@@ -147,9 +150,6 @@ fn rate_map(args: &Args, size: Option<(usize, usize)>) -> Result<Option<RateMap>
 pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("ttf", args.seed);
-    if args.step == 0 {
-        return Err(Error::invalid("--step must be at least 1"));
-    }
     let mut seq = load_sequence(&args.input)?;
     if let Some(r) = &args.frames {
         seq = seq.subsample(r.clone(), args.step)?;
@@ -161,12 +161,12 @@ pub fn run(args: Args) -> Result<()> {
     let rate = rate_map(&args, args.size)?;
     let (iw, ih) = frames[0].size();
     let size = args.size.or(rate.as_ref().map(|r| r.image().size())).unwrap_or((2 * iw, 2 * ih));
-    let out_frames = rate.as_ref().map_or(Ok(frames.len()), |r| r.output_frames(frames.len()))?;
     let mut inputs: Vec<PathBuf> = vec![args.input.clone()];
     inputs.extend(names.iter().map(PathBuf::from).filter(|p| p.is_file()));
     inputs.extend([&args.rate_map, &args.normal_map, &args.rate_curvature].into_iter().flatten().cloned());
     let input_refs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-    refuse_overwrite(&sequence_outputs(&args.out, out_frames, &["compare.gif"]), &input_refs)?;
+    let out = OutDir::begin(&args.out, &input_refs, args.overwrite)?;
+    let dir = out.path();
     manifest.timings_ms.insert("load".into(), clock.lap());
 
     let params = TtfParams {
@@ -188,9 +188,8 @@ pub fn run(args: Args) -> Result<()> {
     let result = with_bar("ttf", |report| ttf::synthesize(&frames, size, &params, rate.as_ref(), args.seed, Some(report)))?;
     manifest.timings_ms.insert("synthesize".into(), clock.lap());
 
-    mkdir(&args.out)?;
     let timed: Vec<(f32, &Image)> = result.frames.iter().enumerate().map(|(t, f)| (t as f32, f)).collect();
-    write_sequence(&args.out, &timed, args.gif_delay, &mut manifest)?;
+    write_sequence(dir, &timed, args.gif_delay, &mut manifest)?;
     if args.compare {
         let n = frames.len();
         let pairs: Vec<Image> = (0..result.frames.len())
@@ -200,11 +199,11 @@ pub fn run(args: Args) -> Result<()> {
                 side_by_side(&frames[src.min(n - 1)], &result.frames[t])
             })
             .collect();
-        save_gif(&pairs.iter().collect::<Vec<_>>(), args.out.join("compare.gif"), args.gif_delay)?;
+        save_gif(&pairs.iter().collect::<Vec<_>>(), dir.join("compare.gif"), args.gif_delay)?;
         manifest.outputs.push("compare.gif".into());
     }
     if let Some(r) = &rate {
-        save_png(&normalised(r.image()), args.out.join("rate_map.png"), BitDepth::Eight)?;
+        save_png(&normalised(r.image()), dir.join("rate_map.png"), BitDepth::Eight)?;
         manifest.outputs.push("rate_map.png".into());
     }
     manifest.timings_ms.insert("save".into(), clock.lap());
@@ -232,7 +231,8 @@ pub fn run(args: Args) -> Result<()> {
     manifest.metrics.insert("flicker_output".into(), json!(patina::metrics::flicker(&result.frames)));
     manifest.inputs = vec![args.input.clone()];
     manifest.inputs.extend([&args.rate_map, &args.normal_map, &args.rate_curvature].into_iter().flatten().cloned());
-    manifest.write(&args.out.join("manifest.json"))?;
+    manifest.write(&dir.join("manifest.json"))?;
+    out.commit()?;
     eprintln!("patina ttf: wrote {} frames of {}x{} to {}", result.frames.len(), size.0, size.1, args.out.display());
     Ok(())
 }

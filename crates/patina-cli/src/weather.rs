@@ -2,7 +2,7 @@
 //! `patina weather-transfer`: texture weathering from a single image
 //! (Bellini et al. 2016).
 
-use crate::output::{check_outputs, manifest_path, mkdir, refuse_overwrite, sequence_outputs, write_sequence, Manifest, Stopwatch};
+use crate::output::{check_outputs, manifest_path, write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
 use patina::image::io::{self, save_png, BitDepth};
 use patina::image::Image;
@@ -23,25 +23,25 @@ fn timed(frames: &[weather::Frame]) -> Vec<(f32, &Image)> {
 #[derive(clap::Args, Clone)]
 pub struct MethodArgs {
     /// Age map grid: N x N source patches (paper: 20; lowered so patches keep at least 8 px).
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = 20, value_parser = |s: &str| crate::flags::count(s, 2, 64))]
     pub grid: usize,
     /// Share of the other grid cells averaged into a patch's age (K = share x (N^2 - 1)); 0 uses the paper's K = 10.
-    #[arg(long, default_value_t = 0.4)]
+    #[arg(long, default_value_t = 0.4, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0))]
     pub k_fraction: f32,
     /// Compare luminance only, as the paper does (default: CIE Lab colour).
     #[arg(long)]
     pub luminance_only: bool,
     /// Weight of the per-pixel detail term of the age map, which finds thin cracks (0 = paper's grid age only).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub detail: f32,
     /// Share of the most-aged pixels the intact texture never copies from (paper: 0.2).
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, default_value_t = 0.2, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 0.95))]
     pub discard: f32,
     /// Do not look for a tile grid: treat the texture as stochastic.
     #[arg(long)]
     pub no_tiles: bool,
     /// Colour layers aged separately (k-means in Lab; 0 or 1 = one layer).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = |s: &str| crate::flags::count(s, 0, 16))]
     pub layers: usize,
     /// Label image for the layers (one grey level per layer; overrides --layers).
     #[arg(long)]
@@ -73,16 +73,16 @@ pub struct Args {
     #[arg(short, long)]
     pub out: PathBuf,
     /// Frames between the intact texture (t = 0) and the input (t = 1).
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = |s: &str| crate::flags::count(s, 0, 256))]
     pub past: usize,
     /// Frames after the input, evenly spaced up to t = 1 + --span.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = |s: &str| crate::flags::count(s, 0, 256))]
     pub future: usize,
     /// Time of the last future frame minus 1.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 100.0))]
     pub span: f32,
     /// Patch blends per future frame [default: half the age map's grid cells, N^2 / 2].
-    #[arg(long)]
+    #[arg(long, value_parser = |s: &str| crate::flags::count(s, 1, 4096))]
     pub steps: Option<usize>,
     /// A user age map (grey, white = weathered) replacing the automatic one.
     #[arg(long)]
@@ -90,6 +90,9 @@ pub struct Args {
     /// A user intact texture replacing the automatic one.
     #[arg(long)]
     pub intact: Option<PathBuf>,
+    /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
+    #[arg(long)]
+    pub overwrite: bool,
     #[command(flatten)]
     pub method: MethodArgs,
 }
@@ -120,14 +123,17 @@ pub struct TransferArgs {
     #[arg(short, long)]
     pub out: PathBuf,
     /// Frames, at t = k / frames for k = 1..frames (t = 1: all of the source's weathering).
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 4, value_parser = |s: &str| crate::flags::count(s, 1, 256))]
     pub frames: usize,
+    /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
+    #[arg(long)]
+    pub overwrite: bool,
     #[command(flatten)]
     pub method: MethodArgs,
 }
 
 fn load_labels(method: &MethodArgs) -> Result<Option<Image>> {
-    method.labels.as_ref().map(io::load).transpose()
+    method.labels.as_ref().map(crate::input::load).transpose()
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -138,14 +144,10 @@ pub fn run(args: Args) -> Result<()> {
     inputs.extend(args.age_map.as_deref());
     inputs.extend(args.intact.as_deref());
     inputs.extend(m.labels.as_deref());
-    let frame_count = args.past + args.future + 2;
-    refuse_overwrite(&sequence_outputs(&args.out, frame_count, &["age_map.png", "intact.png", "layers.png"]), &inputs)?;
-    if args.span.is_nan() || args.span <= 0.0 {
-        return Err(Error::invalid(format!("--span must be positive, got {}", args.span)));
-    }
-    let input = io::load(&args.input)?;
-    let user_age = args.age_map.as_ref().map(io::load).transpose()?;
-    let user_intact = args.intact.as_ref().map(io::load).transpose()?;
+    let out = OutDir::begin(&args.out, &inputs, args.overwrite)?;
+    let input = crate::input::load(&args.input)?;
+    let user_age = args.age_map.as_ref().map(crate::input::load).transpose()?;
+    let user_intact = args.intact.as_ref().map(crate::input::load).transpose()?;
     let labels = load_labels(m)?;
     manifest.timings_ms.insert("load".into(), clock.lap());
 
@@ -169,15 +171,15 @@ pub fn run(args: Args) -> Result<()> {
     })?;
     manifest.timings_ms.insert("weather".into(), clock.lap());
 
-    mkdir(&args.out)?;
-    save_png(&result.age, args.out.join("age_map.png"), BitDepth::Eight)?;
-    save_png(&result.intact, args.out.join("intact.png"), BitDepth::Eight)?;
+    let dir = out.path();
+    save_png(&result.age, dir.join("age_map.png"), BitDepth::Eight)?;
+    save_png(&result.intact, dir.join("intact.png"), BitDepth::Eight)?;
     manifest.outputs.extend(["age_map.png".into(), "intact.png".into()]);
     if let Some(l) = &result.layers {
-        save_png(&l.to_image(), args.out.join("layers.png"), BitDepth::Eight)?;
+        save_png(&l.to_image(), dir.join("layers.png"), BitDepth::Eight)?;
         manifest.outputs.push("layers.png".into());
     }
-    write_sequence(&args.out, &timed(&result.frames), GIF_DELAY_MS, &mut manifest)?;
+    write_sequence(dir, &timed(&result.frames), GIF_DELAY_MS, &mut manifest)?;
     manifest.timings_ms.insert("save".into(), clock.lap());
 
     let mut p = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
@@ -191,7 +193,8 @@ pub fn run(args: Args) -> Result<()> {
     manifest.params = p;
     manifest.metrics.insert("weathered_area".into(), json!(weathered_areas(&result.frames, &result.intact)?));
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
-    manifest.write(&args.out.join("manifest.json"))?;
+    manifest.write(&dir.join("manifest.json"))?;
+    out.commit()?;
     eprintln!("patina weather: wrote {} frames to {}", result.frames.len(), args.out.display());
     Ok(())
 }
@@ -215,7 +218,7 @@ fn single_setup(args: &SingleArgs, command: &str) -> Result<(Manifest, PathBuf, 
     inputs.extend(args.method.labels.as_deref());
     check_outputs(&[&args.out, &manifest_file], &inputs)?;
     io::output_format(&args.out, 3)?;
-    let input = io::load(&args.input)?;
+    let input = crate::input::load(&args.input)?;
     let labels = load_labels(&args.method)?;
     let layers = weather::resolve_layers(&input, args.method.layers, labels.as_ref(), args.method.seed)?;
     let mut manifest = Manifest::new(command, args.method.seed);
@@ -251,7 +254,7 @@ pub fn run_intact(args: SingleArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
     let (mut manifest, manifest_file, input, layers) = single_setup(&args, "intact")?;
     let params = args.method.params();
-    let user_age = args.age_map.as_ref().map(io::load).transpose()?;
+    let user_age = args.age_map.as_ref().map(crate::input::load).transpose()?;
     let (age, _) = weather::resolve_age(&input, &params.age, user_age.as_ref(), layers.as_ref())?;
     let result = with_bar("intact", |_| intact(&input, &age, layers.as_ref(), &params.intact, args.method.seed))?;
     manifest.timings_ms.insert("intact".into(), clock.lap());
@@ -269,12 +272,9 @@ pub fn run_transfer(args: TransferArgs) -> Result<()> {
     let m = &args.method;
     let mut manifest = Manifest::new("weather-transfer", m.seed);
     let inputs: Vec<&Path> = vec![&args.source, &args.target];
-    refuse_overwrite(&sequence_outputs(&args.out, args.frames + 1, &[]), &inputs)?;
-    if args.frames == 0 {
-        return Err(Error::invalid("--frames must be at least 1"));
-    }
-    let source = io::load(&args.source)?;
-    let target = io::load(&args.target)?;
+    let out = OutDir::begin(&args.out, &inputs, args.overwrite)?;
+    let source = crate::input::load(&args.source)?;
+    let target = crate::input::load(&args.target)?;
     if source.channels() != target.channels() {
         return Err(Error::invalid(format!(
             "{} has {} channels but {} has {}",
@@ -303,13 +303,13 @@ pub fn run_transfer(args: TransferArgs) -> Result<()> {
         )
     })?;
     manifest.timings_ms.insert("transfer".into(), clock.lap());
-    mkdir(&args.out)?;
     let mut all = vec![weather::Frame { t: 0.0, image: target.clone() }];
     all.extend(frames);
-    write_sequence(&args.out, &timed(&all), GIF_DELAY_MS, &mut manifest)?;
+    write_sequence(out.path(), &timed(&all), GIF_DELAY_MS, &mut manifest)?;
     manifest.params = json!({ "frames": args.frames, "age": params.age, "intact": params.intact });
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
-    manifest.write(&args.out.join("manifest.json"))?;
+    manifest.write(&out.path().join("manifest.json"))?;
+    out.commit()?;
     eprintln!("patina weather-transfer: wrote {} frames to {}", all.len(), args.out.display());
     Ok(())
 }

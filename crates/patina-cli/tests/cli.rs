@@ -141,7 +141,7 @@ fn demo_makes_its_own_samples_and_measures_them() {
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert_eq!(
         listing(&out),
-        vec!["decay", "exemplar.png", "manifest.json", "optimize.png", "quilt.png", "stbrdf", "stone", "ttf", "weather"]
+        vec!["decay", "exemplar.png", "manifest.json", "optimize.png", "quilt.png", "samples", "stbrdf", "stone", "ttf", "weather"]
     );
     // The stele erodes and the post's rust spreads.
     let read = |p: &str| -> serde_json::Value { serde_json::from_slice(&std::fs::read(out.join(p)).unwrap()).unwrap() };

@@ -106,7 +106,7 @@ impl Style {
 /// texture of `class` and `seed`. Every texel depends only on its absolute
 /// position, so windows of one texture tile it exactly.
 pub fn generate(class: DecayClass, seed: u64, x0: i64, y0: i64, width: usize, height: usize) -> Result<Image> {
-    crate::synth::problem::check_memory("decay texture", width, height, CHANNELS)?;
+    crate::image::budget::check_working_set("decay texture", width, height, CHANNELS)?;
     if width == 0 || height == 0 {
         return Err(Error::invalid(format!("decay texture size {width}x{height} is empty")));
     }

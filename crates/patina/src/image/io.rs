@@ -22,30 +22,130 @@ pub enum BitDepth {
 
 const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
 
-/// Load an image file; the format is recognised from its content.
+/// How strictly files are read.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Set NaN and infinite samples (possible only in EXR files) to 0
+    /// instead of refusing the file; [`Loaded::nonfinite`] counts them.
+    pub allow_nonfinite: bool,
+}
+
+/// A decoded file and what was changed to accept it.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub image: Image,
+    /// Non-finite samples set to 0 (only with [`LoadOptions::allow_nonfinite`]).
+    pub nonfinite: usize,
+}
+
+/// What a file's header declares, read before any pixel is decoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Header {
+    pub format: &'static str,
+    pub width: usize,
+    pub height: usize,
+    pub channels: usize,
+    /// Bytes per sample of the decoder's own buffer.
+    pub bytes_per_sample: usize,
+}
+
+impl Header {
+    /// Bytes decoding needs: the decoder's buffer, its f32 copy, and the
+    /// engine's working set at this size (every command works on its
+    /// inputs at least at their own size).
+    pub fn decode_bytes(&self) -> u128 {
+        let samples = (self.width as u128) * (self.height as u128) * self.channels as u128;
+        samples * (self.bytes_per_sample as u128 + 4) + super::budget::working_set(self.width, self.height, self.channels)
+    }
+}
+
+/// Load an image file strictly; the format is recognised from its content.
+/// See [`decode_with`].
 pub fn load(path: impl AsRef<Path>) -> Result<Image> {
+    load_with(path, LoadOptions::default()).map(|l| l.image)
+}
+
+/// Load an image file with `options`; see [`decode_with`].
+pub fn load_with(path: impl AsRef<Path>, options: LoadOptions) -> Result<Loaded> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|source| Error::Read { path: path.into(), source })?;
-    decode(&bytes, path)
+    decode_with(&bytes, path, options)
+}
+
+/// Decode an in-memory file strictly; `path` only names it in errors.
+pub fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
+    decode_with(bytes, path, LoadOptions::default()).map(|l| l.image)
 }
 
 /// Decode an in-memory file; `path` only names it in errors.
-pub fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
+///
+/// The one input gate: the header is read first and the size checked
+/// against [`MAX_SIDE`] and the memory budget ([`super::budget`]) before any
+/// pixel buffer is allocated. Decoding is strict: a PNG whose CRC or zlib
+/// checksum fails or that ends before `IEND`, a JPEG without its end marker
+/// after the last scan, and non-finite samples are errors. A JPEG's EXIF
+/// orientation is applied, so phone photos (and masks painted on them) load
+/// upright.
+pub fn decode_with(bytes: &[u8], path: &Path, options: LoadOptions) -> Result<Loaded> {
+    let bad = |reason: String| Error::Decode { path: path.into(), reason };
+    let header = read_header(bytes, path)?;
+    check_side(header.width, header.height).map_err(|e| bad(e.to_string()))?;
+    super::budget::check(|| format!("{} ({}x{}, {} channels)", path.display(), header.width, header.height, header.channels), header.decode_bytes())?;
+    let mut image = match header.format {
+        "EXR" => decode_exr(bytes),
+        "PNG" => decode_png(bytes),
+        "JPEG" => decode_jpeg(bytes),
+        _ => decode_other(bytes),
+    }
+    .map_err(|e| bad(e.to_string()))?;
+    if image.width() * image.height() * image.channels() > header.width * header.height * header.channels.max(4) {
+        return Err(bad("the decoded image is larger than its header declares".into()));
+    }
+    let nonfinite = image.data().iter().filter(|v| !v.is_finite()).count();
+    if nonfinite > 0 {
+        if !options.allow_nonfinite {
+            return Err(bad(format!("{nonfinite} samples are NaN or infinite (--allow-nonfinite sets them to 0)")));
+        }
+        image.data_mut().iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
+    }
+    Ok(Loaded { image, nonfinite })
+}
+
+/// Read the size and channels a file declares, without decoding pixels.
+pub fn read_header(bytes: &[u8], path: &Path) -> Result<Header> {
     let bad = |reason: String| Error::Decode { path: path.into(), reason };
     if bytes.starts_with(&EXR_MAGIC) {
-        return decode_exr(bytes).map_err(|e| bad(e.to_string()));
+        let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(|e| bad(e.to_string()))?;
+        let h = meta.headers.iter().find(|h| !h.deep).ok_or_else(|| bad("the file holds only deep data".into()))?;
+        let bytes_per_sample =
+            h.channels.list.iter().map(|c| if c.sample_type == exr::meta::attribute::SampleType::F16 { 2 } else { 4 }).max().unwrap_or(4);
+        return Ok(Header {
+            format: "EXR",
+            width: h.layer_size.width(),
+            height: h.layer_size.height(),
+            channels: h.channels.list.len().max(1),
+            bytes_per_sample,
+        });
     }
-    let reader = || image::ImageReader::new(Cursor::new(bytes)).with_guessed_format();
-    let reader = reader().map_err(|e| bad(e.to_string()))?;
-    if reader.format().is_none() {
-        return Err(bad("unknown file format; expected PNG, JPEG or OpenEXR".into()));
-    }
-    let (w, h) = reader.into_dimensions().map_err(|e| bad(e.to_string()))?;
-    check_side(w as usize, h as usize).map_err(|e| bad(e.to_string()))?;
-    let mut reader = image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| bad(e.to_string()))?;
-    reader.no_limits();
-    let dynamic = reader.decode().map_err(|e| bad(e.to_string()))?;
-    from_dynamic(dynamic).map_err(|e| bad(e.to_string()))
+    let reader = image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| bad(e.to_string()))?;
+    let format = match reader.format() {
+        Some(image::ImageFormat::Png) => "PNG",
+        Some(image::ImageFormat::Jpeg) => "JPEG",
+        Some(image::ImageFormat::Gif) => "GIF",
+        _ => return Err(bad("unknown file format; expected PNG, JPEG, GIF or OpenEXR".into())),
+    };
+    use image::ImageDecoder;
+    let decoder = reader.into_decoder().map_err(|e| bad(e.to_string()))?;
+    let (w, h) = decoder.dimensions();
+    let colour = decoder.color_type();
+    let channels = usize::from(colour.channel_count());
+    Ok(Header {
+        format,
+        width: w as usize,
+        height: h as usize,
+        channels,
+        bytes_per_sample: usize::from(colour.bytes_per_pixel()) / channels.max(1),
+    })
 }
 
 fn check_side(w: usize, h: usize) -> Result<()> {
@@ -53,6 +153,84 @@ fn check_side(w: usize, h: usize) -> Result<()> {
         return Err(Error::invalid(format!("size {w}x{h} is outside 1..={MAX_SIDE} per side")));
     }
     Ok(())
+}
+
+type DecodeResult = std::result::Result<Image, Box<dyn std::error::Error>>;
+
+/// PNG through the `png` crate with every checksum verified and the file
+/// read to its `IEND` (the `image` crate skips the zlib checksum).
+fn decode_png(bytes: &[u8]) -> DecodeResult {
+    let mut decoder = png::Decoder::new(Cursor::new(bytes));
+    decoder.ignore_checksums(false);
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info()?;
+    let mut buf = vec![0u8; reader.output_buffer_size().ok_or("the image is too large")?];
+    let frame = reader.next_frame(&mut buf)?;
+    let orientation = reader.info().exif_metadata.as_deref().and_then(image::metadata::Orientation::from_exif_chunk);
+    reader.finish()?;
+    buf.truncate(frame.buffer_size());
+    let (w, h) = (frame.width, frame.height);
+    let channels = frame.color_type.samples();
+    let data: Vec<f32> = match frame.bit_depth {
+        png::BitDepth::Sixteen => buf.chunks_exact(2).map(|b| u16::from_be_bytes([b[0], b[1]]) as f32 / 65535.0).collect(),
+        png::BitDepth::Eight => buf.iter().map(|&b| b as f32 / 255.0).collect(),
+        other => return Err(format!("unexpected bit depth {other:?} after expansion").into()),
+    };
+    let img = Image::from_data(w as usize, h as usize, channels, data)?;
+    Ok(match orientation {
+        Some(o) => oriented(img, o)?,
+        None => img,
+    })
+}
+
+/// JPEG through the `image` crate, refusing a file cut short (no end-of-image
+/// marker after the last scan; the decoder would fill the rest with grey)
+/// and applying the EXIF orientation.
+fn decode_jpeg(bytes: &[u8]) -> DecodeResult {
+    let last_scan = bytes.windows(2).rposition(|m| m == [0xFF, 0xDA]).ok_or("the file has no image scan")?;
+    if !bytes[last_scan..].windows(2).any(|m| m == [0xFF, 0xD9]) {
+        return Err("the file is truncated (no end-of-image marker after the last scan)".into());
+    }
+    use image::ImageDecoder;
+    let mut decoder = image::codecs::jpeg::JpegDecoder::new(Cursor::new(bytes))?;
+    let orientation = decoder.orientation()?;
+    let mut dynamic = image::DynamicImage::from_decoder(decoder)?;
+    dynamic.apply_orientation(orientation);
+    Ok(from_dynamic(dynamic)?)
+}
+
+/// Other still formats (GIF: its first frame).
+fn decode_other(bytes: &[u8]) -> DecodeResult {
+    let mut reader = image::ImageReader::new(Cursor::new(bytes)).with_guessed_format()?;
+    reader.no_limits();
+    Ok(from_dynamic(reader.decode()?)?)
+}
+
+/// `img` turned upright by an EXIF orientation.
+fn oriented(img: Image, o: image::metadata::Orientation) -> Result<Image> {
+    use image::metadata::Orientation as O;
+    if o == O::NoTransforms {
+        return Ok(img);
+    }
+    let (w, h) = img.size();
+    let swap = matches!(o, O::Rotate90 | O::Rotate270 | O::Rotate90FlipH | O::Rotate270FlipH);
+    let (ow, oh) = if swap { (h, w) } else { (w, h) };
+    let mut out = Image::from_fn(ow, oh, img.channels(), |x, y, p| {
+        // Source pixel of output (x, y) for each of the eight orientations.
+        let (sx, sy) = match o {
+            O::NoTransforms => (x, y),
+            O::FlipHorizontal => (w - 1 - x, y),
+            O::Rotate180 => (w - 1 - x, h - 1 - y),
+            O::FlipVertical => (x, h - 1 - y),
+            O::Rotate90FlipH => (y, x),
+            O::Rotate90 => (y, h - 1 - x),
+            O::Rotate270FlipH => (w - 1 - y, h - 1 - x),
+            O::Rotate270 => (w - 1 - y, x),
+        };
+        p.copy_from_slice(img.pixel(sx, sy));
+    });
+    out.set_groups(img.groups().to_vec())?;
+    Ok(out)
 }
 
 fn from_dynamic(d: image::DynamicImage) -> Result<Image> {
@@ -82,7 +260,7 @@ fn exr_rank(name: &str) -> (usize, String) {
     (rank, name.to_string())
 }
 
-fn decode_exr(bytes: &[u8]) -> std::result::Result<Image, Box<dyn std::error::Error>> {
+fn decode_exr(bytes: &[u8]) -> DecodeResult {
     use exr::prelude::*;
     let img = read()
         .no_deep_data()
@@ -93,7 +271,6 @@ fn decode_exr(bytes: &[u8]) -> std::result::Result<Image, Box<dyn std::error::Er
         .from_buffered(Cursor::new(bytes))?;
     let layer = img.layer_data;
     let (w, h) = (layer.size.width(), layer.size.height());
-    check_side(w, h)?;
     let mut chans: Vec<(String, Vec<f32>)> = layer
         .channel_data
         .list

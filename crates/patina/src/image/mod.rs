@@ -7,6 +7,7 @@
 //! patch-synthesis engine reads fastest. Channels are grouped under names
 //! (`rgb`, `alpha`, `guide`, `kd`, ...) so a 28-channel material stays readable.
 
+pub mod budget;
 pub mod color;
 pub mod filter;
 pub mod io;

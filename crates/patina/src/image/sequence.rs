@@ -3,7 +3,7 @@
 //! frame must have the first frame's size and channels; the error names the
 //! first frame that does not.
 
-use super::io::{decode, load};
+use super::io::{decode, read_header};
 use super::Image;
 use crate::error::{Error, Result};
 use std::cmp::Ordering;
@@ -11,6 +11,12 @@ use std::path::{Path, PathBuf};
 
 /// File extensions read as frames from a folder.
 const FRAME_EXTENSIONS: [&str; 5] = ["png", "jpg", "jpeg", "exr", "gif"];
+
+/// Most frames a sequence may hold. Synthesis time grows with the frame
+/// count times the output's pixels; 2000 frames is four times the longest
+/// sequence patina is specified for (500 frames), and far past any
+/// time-lapse of the papers (tens to a few hundred frames).
+pub const MAX_FRAMES: usize = 2000;
 
 /// A loaded sequence: its frames and where each came from.
 #[derive(Clone, Debug)]
@@ -78,8 +84,27 @@ fn load_folder(dir: &Path) -> Result<Sequence> {
         return Err(Error::invalid(format!("{} holds no frames (PNG, JPEG, EXR or GIF files)", dir.display())));
     }
     files.sort_by(|a, b| natural_cmp(&a.to_string_lossy(), &b.to_string_lossy()));
-    let frames = files.iter().map(load).collect::<Result<Vec<_>>>()?;
+    check_count(files.len(), dir)?;
+    // Every frame's header first: the whole sequence must fit the budget
+    // (all frames as f32, plus one frame's decoding) before any is decoded.
+    let mut total: u128 = 0;
+    let mut peak: u128 = 0;
+    for f in &files {
+        let bytes = std::fs::read(f).map_err(|source| Error::Read { path: f.clone(), source })?;
+        let h = read_header(&bytes, f)?;
+        total += (h.width * h.height * h.channels) as u128 * 4;
+        peak = peak.max(h.decode_bytes());
+    }
+    super::budget::check(|| format!("{} frames from {}", files.len(), dir.display()), total + peak)?;
+    let frames = files.iter().map(super::io::load).collect::<Result<Vec<_>>>()?;
     Ok(Sequence { frames, names: files.iter().map(|p| p.display().to_string()).collect() })
+}
+
+fn check_count(n: usize, path: &Path) -> Result<()> {
+    if n > MAX_FRAMES {
+        return Err(Error::invalid(format!("{} holds {n} frames; patina reads at most {MAX_FRAMES}", path.display())));
+    }
+    Ok(())
 }
 
 fn load_gif(path: &Path) -> Result<Sequence> {
@@ -91,17 +116,20 @@ fn load_gif(path: &Path) -> Result<Sequence> {
         let img = decode(&bytes, path)?;
         return Ok(Sequence { frames: vec![img], names: vec![path.display().to_string()] });
     }
+    let header = read_header(&bytes, path)?;
+    super::budget::check(|| format!("{} ({}x{})", path.display(), header.width, header.height), header.decode_bytes())?;
+    let frame_bytes = (header.width * header.height) as u128 * (4 + 3 * 4);
     let decoder = image::codecs::gif::GifDecoder::new(std::io::Cursor::new(&bytes)).map_err(|e| bad(e.to_string()))?;
-    let frames = decoder.into_frames().collect_frames().map_err(|e| bad(e.to_string()))?;
-    let images = frames
-        .into_iter()
-        .map(|f| {
-            let rgba = f.into_buffer();
-            let (w, h) = (rgba.width() as usize, rgba.height() as usize);
-            let data = rgba.into_raw().chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).map(|b| b as f32 / 255.0).collect();
-            Image::from_data(w, h, 3, data)
-        })
-        .collect::<Result<Vec<_>>>()?;
+    // Frames one at a time, with the count and the memory checked as they come.
+    let mut images = Vec::new();
+    for (i, frame) in decoder.into_frames().enumerate() {
+        check_count(i + 1, path)?;
+        super::budget::check(|| format!("{} frames of {}", i + 1, path.display()), frame_bytes * (i as u128 + 1) + header.decode_bytes())?;
+        let rgba = frame.map_err(|e| bad(e.to_string()))?.into_buffer();
+        let (w, h) = (rgba.width() as usize, rgba.height() as usize);
+        let data = rgba.into_raw().chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).map(|b| b as f32 / 255.0).collect();
+        images.push(Image::from_data(w, h, 3, data)?);
+    }
     let names = (0..images.len()).map(|i| format!("{}#{i}", path.display())).collect();
     Ok(Sequence { frames: images, names })
 }

@@ -46,6 +46,38 @@ pub struct Material {
     pub coefficients: Image,
 }
 
+/// Most channels one parameter may have (a material is untrusted input).
+pub const MAX_PARAM_CHANNELS: usize = 64;
+
+/// Refuse parameters that could not be a material's: names that are not a
+/// plain identifier (they become file names, so `../x` or `/abs` would
+/// read and write outside the folder), channel counts outside
+/// 1..=[`MAX_PARAM_CHANNELS`], repeated names, or none at all.
+pub fn check_params(params: &[Param]) -> Result<()> {
+    if params.is_empty() || params.len() > MAX_PARAM_CHANNELS {
+        return Err(Error::invalid(format!("a material needs 1 to {MAX_PARAM_CHANNELS} parameters, got {}", params.len())));
+    }
+    for (i, p) in params.iter().enumerate() {
+        let safe = !p.name.is_empty()
+            && p.name.len() <= 64
+            && p.name.starts_with(|c: char| c.is_ascii_alphabetic())
+            && p.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+        if !safe {
+            return Err(Error::invalid(format!(
+                "parameter name {:?} is not a plain name (a letter, then letters, digits or _; at most 64)",
+                p.name
+            )));
+        }
+        if !(1..=MAX_PARAM_CHANNELS).contains(&p.channels) {
+            return Err(Error::invalid(format!("parameter {} has {} channels; 1 to {MAX_PARAM_CHANNELS} are allowed", p.name, p.channels)));
+        }
+        if params[..i].iter().any(|q| q.name.eq_ignore_ascii_case(&p.name)) {
+            return Err(Error::invalid(format!("parameter {} is listed twice", p.name)));
+        }
+    }
+    Ok(())
+}
+
 /// Parameter names tsvbrdf uses, in its order.
 const TSVBRDF_NAMES: [&str; 5] = ["Diffuse", "Specular", "Roughness", "Normal", "Height"];
 
@@ -55,8 +87,9 @@ impl Material {
         if !(1..=MAX_DEGREE).contains(&degree) {
             return Err(Error::invalid(format!("the polynomial degree must be 1..={MAX_DEGREE}, got {degree}")));
         }
+        check_params(&params)?;
         let channels: usize = params.iter().map(|p| p.channels).sum();
-        if params.is_empty() || params.iter().any(|p| p.channels == 0) || channels * (degree + 1) != coefficients.channels() {
+        if channels * (degree + 1) != coefficients.channels() {
             return Err(Error::invalid(format!(
                 "a degree-{degree} material with {channels} parameter channels needs {} coefficient channels, got {}",
                 channels * (degree + 1),
@@ -143,6 +176,9 @@ impl Material {
         };
         if !(1..=MAX_DEGREE).contains(&degree) {
             return Err(Error::invalid(format!("{}: degree {degree} is outside 1..={MAX_DEGREE}", json.display())));
+        }
+        if let Some(ps) = &declared {
+            check_params(ps).map_err(|e| Error::invalid(format!("{}: {e}", json.display())))?;
         }
         let names: Vec<String> = match &declared {
             Some(ps) => ps.iter().map(|p| p.name.clone()).collect(),

@@ -159,7 +159,7 @@ impl<'a> Synthesis<'a> {
             }
         }
         let guide_c = self.target_guide.map_or(0, Image::channels);
-        check_memory("the output", w, h, src.channels() + guide_c)?;
+        crate::image::budget::check_working_set("the output", w, h, src.channels() + guide_c)?;
         Ok(size)
     }
 
@@ -171,31 +171,4 @@ impl<'a> Synthesis<'a> {
             None => style,
         }
     }
-}
-
-/// Bytes of available memory, when the system says (Linux `MemAvailable`).
-pub fn available_memory() -> Option<u64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
-
-/// Fail with [`Error::TooLarge`] when synthesizing a `w` x `h` image of
-/// `channels` channels would need more memory than is available. The
-/// estimate counts the working copies the engine keeps: about eight f32
-/// images of the output, two nearest-neighbour fields, plus pyramids.
-pub fn check_memory(what: &str, w: usize, h: usize, channels: usize) -> Result<()> {
-    let px = (w as u128) * (h as u128);
-    let need = px * (8 * 4 * channels as u128 + 2 * 12) * 4 / 3;
-    if let Some(avail) = available_memory() {
-        if need > avail as u128 {
-            return Err(Error::TooLarge {
-                what: format!("{what} at {w}x{h} with {channels} channels"),
-                need_mib: (need >> 20) as u64,
-                available_mib: avail >> 20,
-            });
-        }
-    }
-    Ok(())
 }

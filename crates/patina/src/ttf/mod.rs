@@ -187,17 +187,9 @@ fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfPa
     let out_frames = rate.map_or(Ok(n), |r| r.output_frames(n))?;
     let c = first.channels() as u128;
     let bytes = 4 * c * ((out_frames as u128) * (width * height) as u128 + 2 * (n * first.width() * first.height()) as u128);
-    if let Some(avail) = crate::synth::problem::available_memory() {
-        if bytes > u128::from(avail) {
-            return Err(Error::TooLarge {
-                what: format!("{out_frames} frames of {width}x{height}"),
-                need_mib: (bytes >> 20) as u64,
-                available_mib: avail >> 20,
-            });
-        }
-    }
+    crate::image::budget::check(|| format!("{out_frames} frames of {width}x{height}"), bytes)?;
     let k = if params.rank == 0 || params.max_error.is_some() { n } else { params.rank.min(n) };
-    crate::synth::problem::check_memory("time-lapse quilting", width, height, first.channels() * k)?;
+    crate::image::budget::check_working_set("time-lapse quilting", width, height, first.channels() * k)?;
     Ok((n, out_frames))
 }
 

@@ -32,6 +32,8 @@ pub const CANDIDATE_QUANTILE: f32 = 0.005;
 pub const MATCH_RATIO: f32 = 0.7;
 /// Fewest verified repetitions (besides the centre) that make a grid.
 pub const MIN_REPEATS: usize = 3;
+/// Most candidate repeats verified and voted on.
+const MAX_CANDIDATES: usize = 96;
 
 /// The lattice of a tiled texture: tile (i, j) starts at origin + i a + j b.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -72,10 +74,15 @@ pub fn detect(img: &Image) -> Option<Lattice> {
         let v = m[y * vw + x];
         (y.saturating_sub(1)..=(y + 1).min(vh - 1)).all(|yy| (x.saturating_sub(1)..=(x + 1).min(vw - 1)).all(|xx| m[yy * vw + xx] >= v))
     };
-    let candidates: Vec<(usize, usize)> = (0..vw * vh)
+    let mut candidates: Vec<(usize, usize)> = (0..vw * vh)
         .map(|i| (i % vw, i / vw))
         .filter(|&(x, y)| (x, y) != centre && map[y * vw + x] <= cut && map[y * vw + x] < MATCH_RATIO * median && min_at(&map, x, y))
         .collect();
+    // The closest matches only: re-matching and the basis vote grow with
+    // the square and the fourth power of the count (an outlier pixel can
+    // make every flat spot a candidate).
+    candidates.sort_by(|p, q| map[p.1 * vw + p.0].total_cmp(&map[q.1 * vw + q.0]).then(p.cmp(q)));
+    candidates.truncate(MAX_CANDIDATES);
     // Re-match each candidate's own patch and look for the centre.
     let verified: Vec<(usize, usize)> = candidates
         .par_iter()
