@@ -1,8 +1,6 @@
 //! `patina decay`, `patina decay-texture`: natural image decay (Hao et al. 2023).
 
-use crate::output::{
-    check_outputs, manifest_path, parse_size, write_sequence, Manifest, OutDir, Stopwatch,
-};
+use crate::output::{check_outputs, manifest_path, parse_size, write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
 use patina::decay::{self, degree::Diffusion, texture, DecayClass, DecayParams, Inputs, ShadingParams};
 use patina::image::color::{linear_to_srgb, luminance};

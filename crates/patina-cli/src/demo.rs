@@ -70,7 +70,11 @@ pub fn run(args: Args) -> Result<()> {
     stone_demo(dir, args.seed)?;
     decay_demo(dir, args.seed)?;
     out.commit()?;
-    eprintln!("patina demo: wrote every output to {} (the generated inputs are in {})", args.out.display(), args.out.join("samples").display());
+    eprintln!(
+        "patina demo: wrote every output to {} (the generated inputs are in {})",
+        args.out.display(),
+        args.out.join("samples").display()
+    );
     Ok(())
 }
 

@@ -163,7 +163,10 @@ fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>)> {
     let mut subdirs: Vec<PathBuf> = paths.iter().filter(|p| p.is_dir()).cloned().collect();
     subdirs.sort_by(|a, b| natural_cmp(&a.to_string_lossy(), &b.to_string_lossy()));
     let image_file = |p: &&PathBuf| {
-        p.is_file() && p.extension().and_then(|e| e.to_str()).is_some_and(|e| ["png", "jpg", "jpeg", "exr", "gif"].contains(&e.to_lowercase().as_str()))
+        p.is_file()
+            && p.extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| ["png", "jpg", "jpeg", "exr", "gif"].contains(&e.to_lowercase().as_str()))
     };
     if let (Some(sub), Some(file)) = (subdirs.first(), paths.iter().find(image_file)) {
         return Err(Error::invalid(format!(

@@ -94,7 +94,11 @@ pub fn run(args: Args) -> Result<()> {
         ..StoneParams::default()
     };
     let photo = crate::input::load(&args.photo)?;
-    let mask = args.mask.as_ref().map(|m| crate::input::load(m).map(|img| Mask::from_image(&patina::image::color::luminance(&img)))).transpose()?;
+    let mask = args
+        .mask
+        .as_ref()
+        .map(|m| crate::input::load(m).map(|img| Mask::from_image(&patina::image::color::luminance(&img))))
+        .transpose()?;
     let sample = args.rough_sample.as_ref().map(crate::input::load).transpose()?;
     manifest.timings_ms.insert("load".into(), clock.lap());
 

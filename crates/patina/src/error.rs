@@ -27,9 +27,25 @@ pub enum Error {
 }
 
 impl Error {
-    /// True when the user can fix the problem by changing the input or flags.
+    /// True when the user can fix the problem by changing the input, the
+    /// flags or the output path: everything but internal failures and
+    /// writes that failed for reasons other than the path (a full disk).
     pub fn is_usage(&self) -> bool {
-        !matches!(self, Error::Internal(_) | Error::Write { .. })
+        use std::io::ErrorKind as K;
+        match self {
+            Error::Internal(_) => false,
+            Error::Write { source, .. } => matches!(
+                source.kind(),
+                K::NotFound
+                    | K::PermissionDenied
+                    | K::AlreadyExists
+                    | K::NotADirectory
+                    | K::IsADirectory
+                    | K::ReadOnlyFilesystem
+                    | K::InvalidInput
+            ),
+            _ => true,
+        }
     }
 
     /// Shorthand for [`Error::InvalidInput`].

@@ -119,7 +119,7 @@ mod tests {
     fn shading_keeps_the_form_and_drops_the_albedo_texture() {
         let (w, h) = (96, 64);
         let shade = |x: usize| 0.15 + 0.85 * ((x as f32 / w as f32 - 0.5) * 2.6).cos().max(0.0);
-        let albedo = |x: usize, y: usize| if (x / 2 + y / 3) % 2 == 0 { 0.5 } else { 0.62 };
+        let albedo = |x: usize, y: usize| if (x / 2 + y / 3).is_multiple_of(2) { 0.5 } else { 0.62 };
         let photo = Image::from_fn(w, h, 3, |x, y, p| p.fill(linear_to_srgb(shade(x) * albedo(x, y))));
         let s = estimate(&photo, &Mask::filled(w, h, true), &ShadingParams { radius: 0.05, eps: 0.04 });
         // Relative shading between the centre and the flank matches the truth.

@@ -20,6 +20,12 @@ pub enum BitDepth {
     Sixteen,
 }
 
+/// Largest sample magnitude accepted. Colours, material parameters and
+/// their polynomial coefficients are all far below it (f16 EXR tops out at
+/// 65504); beyond it, squared patch distances summed over a patch overflow
+/// f32 and every method's answer would be meaningless.
+pub const MAX_MAGNITUDE: f32 = 1e6;
+
 const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
 
 /// How strictly files are read.
@@ -83,14 +89,18 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
 /// against [`MAX_SIDE`] and the memory budget ([`super::budget`]) before any
 /// pixel buffer is allocated. Decoding is strict: a PNG whose CRC or zlib
 /// checksum fails or that ends before `IEND`, a JPEG without its end marker
-/// after the last scan, and non-finite samples are errors. A JPEG's EXIF
+/// after the last scan, non-finite samples and samples beyond
+/// [`MAX_MAGNITUDE`] are errors. A JPEG's EXIF
 /// orientation is applied, so phone photos (and masks painted on them) load
 /// upright.
 pub fn decode_with(bytes: &[u8], path: &Path, options: LoadOptions) -> Result<Loaded> {
     let bad = |reason: String| Error::Decode { path: path.into(), reason };
     let header = read_header(bytes, path)?;
     check_side(header.width, header.height).map_err(|e| bad(e.to_string()))?;
-    super::budget::check(|| format!("{} ({}x{}, {} channels)", path.display(), header.width, header.height, header.channels), header.decode_bytes())?;
+    super::budget::check(
+        || format!("{} ({}x{}, {} channels)", path.display(), header.width, header.height, header.channels),
+        header.decode_bytes(),
+    )?;
     let mut image = match header.format {
         "EXR" => decode_exr(bytes),
         "PNG" => decode_png(bytes),
@@ -107,6 +117,9 @@ pub fn decode_with(bytes: &[u8], path: &Path, options: LoadOptions) -> Result<Lo
             return Err(bad(format!("{nonfinite} samples are NaN or infinite (--allow-nonfinite sets them to 0)")));
         }
         image.data_mut().iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
+    }
+    if let Some(v) = image.data().iter().copied().find(|v| v.abs() > MAX_MAGNITUDE) {
+        return Err(bad(format!("a sample is {v:e}, beyond the +/-{MAX_MAGNITUDE:e} patina accepts")));
     }
     Ok(Loaded { image, nonfinite })
 }
@@ -597,5 +610,51 @@ mod tests {
         assert!(matches!(load(&p), Err(Error::Decode { .. })));
         assert!(matches!(load(dir.join("missing.png")), Err(Error::Read { .. })));
         std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn every_exif_orientation_matches_the_image_crate() {
+        use image::metadata::Orientation as O;
+        let img = gradient(3);
+        let rgb: Vec<u8> = img.data().iter().map(|v| (v * 255.0).round() as u8).collect();
+        let reference = image::RgbImage::from_raw(7, 5, rgb).unwrap();
+        for o in [
+            O::NoTransforms,
+            O::Rotate90,
+            O::Rotate180,
+            O::Rotate270,
+            O::FlipHorizontal,
+            O::FlipVertical,
+            O::Rotate90FlipH,
+            O::Rotate270FlipH,
+        ] {
+            let mut want = image::DynamicImage::ImageRgb8(reference.clone());
+            want.apply_orientation(o);
+            let got = oriented(img.clone(), o).unwrap();
+            assert_eq!((got.width() as u32, got.height() as u32), (want.width(), want.height()), "{o:?}");
+            let want = from_dynamic(want).unwrap();
+            for (a, b) in got.data().iter().zip(want.data()) {
+                assert!((a - b).abs() < 0.6 / 255.0, "{o:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_phone_photo_loads_upright() {
+        // 16 x 8, left half dark; EXIF orientation 6 (rotate 90 clockwise to view).
+        let rgb: Vec<u8> = (0..16 * 8).flat_map(|i| if i % 16 < 8 { [20u8; 3] } else { [230u8; 3] }).collect();
+        let mut jpeg = Vec::new();
+        image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 95).encode(&rgb, 16, 8, image::ExtendedColorType::Rgb8).unwrap();
+        let mut tiff = b"Exif\0\0MM\0\x2a\0\0\0\x08\0\x01".to_vec();
+        tiff.extend([0x01, 0x12, 0, 3, 0, 0, 0, 1, 0, 6, 0, 0, 0, 0, 0, 0]);
+        let mut file = jpeg[..2].to_vec();
+        file.extend([0xFF, 0xE1]);
+        file.extend(((tiff.len() + 2) as u16).to_be_bytes());
+        file.extend(tiff);
+        file.extend(&jpeg[2..]);
+        let img = decode(&file, Path::new("phone.jpg")).unwrap();
+        assert_eq!(img.size(), (8, 16), "rotated upright");
+        // The dark left half of the stored image is the top once rotated clockwise.
+        assert!(img.at(4, 2, 0) < 0.3 && img.at(4, 13, 0) > 0.7);
     }
 }

@@ -37,7 +37,7 @@ impl Sequence {
         if range.start >= range.end || range.end > n {
             return Err(Error::invalid(format!("frames {}..{} are outside the sequence's {n} frames (0..{n})", range.start, range.end)));
         }
-        let keep = |i: &usize| range.contains(i) && (i - range.start) % step == 0;
+        let keep = |i: &usize| range.contains(i) && (i - range.start).is_multiple_of(step);
         let frames = self.frames.into_iter().enumerate().filter(|(i, _)| keep(i)).map(|(_, f)| f).collect();
         let names = self.names.into_iter().enumerate().filter(|(i, _)| keep(i)).map(|(_, f)| f).collect();
         Ok(Sequence { frames, names })

@@ -20,7 +20,7 @@ const SWEEPS: usize = 8;
 
 /// Nearest-patch distances from every interior patch of `from` to `to`.
 fn nearest(from: &Image, to: &Image, patch: usize, exclude_self: Option<usize>, seed: u64) -> Result<(Nnf, Mask)> {
-    if patch % 2 == 0 || patch < 3 {
+    if patch.is_multiple_of(2) || patch < 3 {
         return Err(Error::invalid(format!("metric patch size must be odd and >= 3, got {patch}")));
     }
     if from.channels() != to.channels() {

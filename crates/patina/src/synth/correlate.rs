@@ -99,7 +99,7 @@ impl Plans {
             // The DC (and Nyquist) bins of a real signal's spectrum are real;
             // round-off must not make the inverse refuse them.
             scratch.row_spec[0].im = 0.0;
-            if self.fw % 2 == 0 {
+            if self.fw.is_multiple_of(2) {
                 scratch.row_spec[cols - 1].im = 0.0;
             }
             self.row_inv

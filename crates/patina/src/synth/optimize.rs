@@ -171,7 +171,7 @@ impl Synthesis<'_> {
 
     /// Synthesize by texture optimization.
     pub fn optimize(&self, params: &OptimizeParams) -> Result<Synthesized> {
-        if params.patch < 3 || params.patch % 2 == 0 || params.patch > super::distance::MAX_PATCH {
+        if params.patch < 3 || params.patch.is_multiple_of(2) || params.patch > super::distance::MAX_PATCH {
             return Err(Error::invalid(format!("patch size must be odd and in 3..={}, got {}", super::distance::MAX_PATCH, params.patch)));
         }
         if params.search_vote_iters == 0 || params.patchmatch_iters == 0 {

@@ -146,7 +146,7 @@ impl Scan<'_> {
         let h = self.target.height();
         let y0 = band * BAND_ROWS;
         let nrows = rows.len() / w;
-        let forward = self.iteration % 2 == 0;
+        let forward = self.iteration.is_multiple_of(2);
         let mut g = rng::generator(self.seed, &[self.iteration as u64, band as u64]);
         let own = self.occupancy.as_ref().map_or(0.0, |o| self.pm.uniformity * o.own);
         let step: i64 = if forward { -1 } else { 1 };

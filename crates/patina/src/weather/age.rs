@@ -109,7 +109,7 @@ impl AgeParams {
         if self.k_fraction.is_some_and(|f| !(f > 0.0 && f <= 1.0)) {
             return Err(Error::invalid("age map k_fraction must be in (0, 1]"));
         }
-        if !(self.detail >= 0.0 && self.detail <= 1.0) || self.detail_patch < 3 || self.detail_patch % 2 == 0 {
+        if !(self.detail >= 0.0 && self.detail <= 1.0) || self.detail_patch < 3 || self.detail_patch.is_multiple_of(2) {
             return Err(Error::invalid("age map detail weight must be in [0, 1] and its patch odd and >= 3"));
         }
         Ok((n, (w / n, h / n)))

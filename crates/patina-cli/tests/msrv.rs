@@ -1,0 +1,30 @@
+//! The declared `rust-version` is true: no locked dependency needs a newer
+//! compiler. (Only one toolchain is installable here, so the declared
+//! version cannot be built directly; this checks every dependency's own
+//! declaration instead.)
+
+fn version(v: &str) -> Vec<u32> {
+    let mut parts: Vec<u32> = v.split('.').map(|p| p.parse().unwrap_or(0)).collect();
+    parts.resize(3, 0);
+    parts
+}
+
+#[test]
+fn declared_rust_version_covers_every_locked_dependency() {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args(["metadata", "--format-version", "1", "--locked", "--offline"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo metadata runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let declared = version(env!("CARGO_PKG_RUST_VERSION"));
+    let packages = meta["packages"].as_array().unwrap();
+    assert!(packages.len() > 10, "the dependency graph was read");
+    for p in packages {
+        if let Some(rv) = p["rust_version"].as_str() {
+            assert!(version(rv) <= declared, "{} {} needs Rust {rv}, newer than the declared {:?}", p["name"], p["version"], declared);
+        }
+    }
+}
