@@ -26,6 +26,8 @@ pub enum InitArg {
     Blocks,
     /// A coarse image quilt: keeps structure such as brick courses.
     Quilt,
+    /// A full-resolution quilt whose block interiors are kept; the optimization heals only the seams.
+    QuiltSeams,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -88,7 +90,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = VoteArg::Mean)]
     pub vote: VoteArg,
     /// How the coarsest level starts (optimize).
-    #[arg(long, value_enum, default_value_t = InitArg::Quilt)]
+    #[arg(long, value_enum, default_value_t = InitArg::QuiltSeams)]
     pub init: InitArg,
     /// Stop threshold: re-search only pixels whose patch changed by at least this much after a vote (optimize; 0 = always; EbSynth's 5 of 255).
     #[arg(long, default_value_t = 5.0 / 255.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0))]
@@ -138,6 +140,7 @@ impl Args {
             },
             init: match self.init {
                 InitArg::Random => Init::Random,
+                InitArg::QuiltSeams => Init::QuiltSeams,
                 InitArg::Blocks => Init::Blocks,
                 InitArg::Quilt => Init::Quilt,
             },

@@ -6,8 +6,10 @@
 //! patches are found with the engine's PatchMatch (many sweeps; approximate
 //! but very close to exhaustive search at these settings).
 
+mod defects;
 mod stationarity;
 
+pub use defects::{grid_peak, nonstationarity, repeated_share};
 pub use stationarity::{stationarity, Stationarity};
 
 use crate::error::{Error, Result};
@@ -19,7 +21,7 @@ use crate::synth::{Nnf, PatchMatch, PatchMetric};
 const SWEEPS: usize = 8;
 
 /// Nearest-patch distances from every interior patch of `from` to `to`.
-fn nearest(from: &Image, to: &Image, patch: usize, exclude_self: Option<usize>, seed: u64) -> Result<(Nnf, Mask)> {
+pub(super) fn nearest(from: &Image, to: &Image, patch: usize, exclude_self: Option<usize>, seed: u64) -> Result<(Nnf, Mask)> {
     if patch.is_multiple_of(2) || patch < 3 {
         return Err(Error::invalid(format!("metric patch size must be odd and >= 3, got {patch}")));
     }

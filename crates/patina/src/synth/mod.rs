@@ -8,6 +8,7 @@
 //! - [`correlate`] and [`quilt`]: image quilting with FFT candidate search
 //!   and minimum-error boundary cuts.
 
+pub mod blend;
 pub mod correlate;
 pub mod distance;
 pub mod nnf;

@@ -56,6 +56,15 @@ pub enum Init {
     /// the optimization starts from quilting's intact structure and only
     /// refines it. Falls back to `Blocks` when filling a hole.
     Quilt,
+    /// Quilt at full resolution and keep the quilt's correspondence; then
+    /// optimize at that one level, searching only around the seams (the
+    /// blocks' overlaps) at first and then wherever a vote changed the
+    /// image. Block interiors stay verbatim copies, so joints, grout and
+    /// grain keep their structure, while the optimization heals the seams
+    /// (the "quilt-then-optimize" of DESIGN.md; mean voting over many
+    /// misaligned candidates at coarse levels is what smeared structure).
+    /// Falls back to `Blocks` when filling a hole.
+    QuiltSeams,
 }
 
 /// Block side, in coarsest-level pixels, of [`Init::Blocks`].
@@ -70,7 +79,7 @@ impl Default for OptimizeParams {
             patchmatch_iters: 4,
             uniformity: 3500.0 / 65025.0,
             vote: VoteWeights::Mean,
-            init: Init::Quilt,
+            init: Init::QuiltSeams,
             stop_threshold: 5.0 / 255.0,
         }
     }
@@ -131,6 +140,9 @@ fn changed(a: &Image, b: &Image, threshold: f32) -> Mask {
 impl Synthesis<'_> {
     /// A field copying an image quilt of `style` (guided by the guides, if
     /// any) at `size`; positions outside `domain` are clamped into it.
+    /// With `seams_only`, the quilt uses the quilting defaults' blocks (a
+    /// full-resolution quilt); else blocks of a third of the style's side.
+    /// Also returns where blocks overlap (the seams).
     #[allow(clippy::too_many_arguments)]
     fn quilt_field(
         &self,
@@ -141,7 +153,8 @@ impl Synthesis<'_> {
         size: (usize, usize),
         domain: &SourceDomain,
         seed: u64,
-    ) -> Result<Nnf> {
+        seams_only: bool,
+    ) -> Result<(Nnf, Mask)> {
         let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed);
         if let Some(m) = allowed {
             problem = problem.source_mask(m);
@@ -155,9 +168,14 @@ impl Synthesis<'_> {
         if let Some(m) = self.metric.as_ref().filter(|m| m.ssd_weights().is_some()) {
             problem = problem.metric(m.clone());
         }
-        let block = (style.width().min(style.height()) / 3).max(2 * domain.radius() + 3);
-        let params = QuiltParams { block: Some((block, block)), ..QuiltParams::default() };
+        let params = if seams_only {
+            QuiltParams::default()
+        } else {
+            let block = (style.width().min(style.height()) / 3).max(2 * domain.radius() + 3);
+            QuiltParams { block: Some((block, block)), ..QuiltParams::default() }
+        };
         let plan = problem.quilt(&params)?.plan;
+        let seams = plan.overlap_mask();
         let matches = plan
             .source_positions()
             .into_iter()
@@ -166,7 +184,7 @@ impl Synthesis<'_> {
                 Match { x: cx as u32, y: cy as u32, cost: f32::INFINITY }
             })
             .collect();
-        Ok(Nnf::from_matches(size.0, size.1, matches))
+        Ok((Nnf::from_matches(size.0, size.1, matches), seams))
     }
 
     /// Synthesize by texture optimization.
@@ -181,9 +199,10 @@ impl Synthesis<'_> {
         let r = params.patch / 2;
         let src = self.source;
         let min_side = src.width().min(src.height()).min(w).min(h);
-        let quilt_start = params.init == Init::Quilt && self.fill.is_none() && self.start.is_none();
+        let quilt_start = matches!(params.init, Init::Quilt | Init::QuiltSeams) && self.fill.is_none() && self.start.is_none();
+        let seams_only = quilt_start && params.init == Init::QuiltSeams;
         let floor = if quilt_start { MIN_COARSE_SIDE_QUILT.max(4 * params.patch) } else { 4 * params.patch };
-        let levels = params.levels.unwrap_or_else(|| auto_levels(min_side, floor)).max(1);
+        let levels = if seams_only { 1 } else { params.levels.unwrap_or_else(|| auto_levels(min_side, floor)).max(1) };
         if (min_side >> (levels - 1)) < params.patch {
             return Err(Error::invalid(format!("{levels} pyramid levels shrink the smallest side ({min_side} px) below one patch")));
         }
@@ -205,6 +224,7 @@ impl Synthesis<'_> {
         let total: u64 = sizes.iter().map(|(a, b)| (a * b * params.search_vote_iters) as u64).sum();
         let mut done = 0u64;
         let mut nnf: Option<Nnf> = None;
+        let mut seams: Option<Mask> = None;
         let mut target = Image::new(1, 1, 1);
         for level in (0..levels).rev() {
             let (tw, th) = sizes[level];
@@ -221,12 +241,15 @@ impl Synthesis<'_> {
                 Some(coarse) => upsample_nnf(&coarse, tw, th, &domain, level_seed),
                 None => match params.init {
                     Init::Random => random_nnf(tw, th, &domain, level_seed),
-                    Init::Quilt if quilt_start => {
+                    Init::Quilt | Init::QuiltSeams if quilt_start => {
                         let sg = sguide_pyr.as_ref().map(|p| &p[level]);
                         let tg = tguide_pyr.as_ref().map(|p| &p[level]);
                         let allowed = allowed_pyr.as_ref().map(|p| &p[level]);
-                        match self.quilt_field(style, sg, tg, allowed, (tw, th), &domain, level_seed) {
-                            Ok(field) => field,
+                        match self.quilt_field(style, sg, tg, allowed, (tw, th), &domain, level_seed, seams_only) {
+                            Ok((field, overlap)) => {
+                                seams = seams_only.then(|| overlap.dilate(r + 1));
+                                field
+                            }
                             // A scattered source mask may leave no room for a whole block.
                             Err(_) if allowed.is_some() => block_nnf(tw, th, &domain, INIT_BLOCK, level_seed),
                             Err(e) => return Err(e),
@@ -257,7 +280,7 @@ impl Synthesis<'_> {
                 max_search_radius: None,
                 exclude_self: None,
             };
-            let mut active: Option<Mask> = search.clone();
+            let mut active: Option<Mask> = search.clone().or(seams.take());
             for it in 0..params.search_vote_iters {
                 let mut parts = vec![&target];
                 if let Some(g) = &tguide_pyr {

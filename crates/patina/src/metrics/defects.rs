@@ -1,0 +1,152 @@
+//! Measures of the defects synthesis shows on real inputs (see
+//! ../shared/REVIEW.md, "Figures that back the eye"): a visible block grid,
+//! lighting copied piecewise, and features repeated verbatim.
+
+use super::nearest;
+use crate::error::Result;
+use crate::image::color::luminance;
+use crate::image::filter::gaussian_blur;
+use crate::image::Image;
+
+/// Shortest and longest grid period looked for, in pixels.
+const GRID_PERIODS: (usize, usize) = (8, 128);
+
+/// Block-grid visibility: the strongest periodic peak of the image's
+/// gradient profile. The mean absolute horizontal luminance gradient of each
+/// column (and vertical, of each row) gives two profiles; for every period
+/// P in 8..=128 and phase, the mean of the profile at phase + kP over the
+/// profile's mean is the comb's height. A block grid (edges every P pixels)
+/// gives a high comb; a stationary texture stays near 1. Compare an output's
+/// value with its exemplar's: a ratio near 1 means no grid was added.
+pub fn grid_peak(img: &Image) -> f32 {
+    let y = luminance(img);
+    let (w, h) = y.size();
+    let mut cols = vec![0f64; w.saturating_sub(1)];
+    let mut rows = vec![0f64; h.saturating_sub(1)];
+    for yy in 0..h {
+        for xx in 0..w {
+            let v = y.at(xx, yy, 0);
+            if xx + 1 < w {
+                cols[xx] += (y.at(xx + 1, yy, 0) - v).abs() as f64;
+            }
+            if yy + 1 < h {
+                rows[yy] += (y.at(xx, yy + 1, 0) - v).abs() as f64;
+            }
+        }
+    }
+    comb_peak(&cols).max(comb_peak(&rows)) as f32
+}
+
+/// The highest comb (mean at phase + kP over the mean), needing at least
+/// three teeth.
+fn comb_peak(profile: &[f64]) -> f64 {
+    let n = profile.len();
+    let mean = profile.iter().sum::<f64>() / n.max(1) as f64;
+    if n < 3 * GRID_PERIODS.0 || mean <= 0.0 {
+        return 1.0;
+    }
+    let mut best = 1.0f64;
+    for period in GRID_PERIODS.0..=GRID_PERIODS.1.min(n / 3) {
+        for phase in 0..period {
+            let (mut s, mut k) = (0.0, 0);
+            let mut i = phase;
+            while i < n {
+                s += profile[i];
+                k += 1;
+                i += period;
+            }
+            best = best.max(s / k as f64 / mean);
+        }
+    }
+    best
+}
+
+/// Large-scale non-stationarity: the standard deviation of the luminance
+/// blurred with a Gaussian of sigma = 1/8 of the smaller side, over its mean.
+/// A vignette or a lighting ramp raises it; a stationary texture has almost
+/// none left after such a blur.
+pub fn nonstationarity(img: &Image) -> f32 {
+    let y = luminance(img);
+    let sigma = y.width().min(y.height()) as f32 / 8.0;
+    let b = gaussian_blur(&y, sigma);
+    let d = b.data();
+    let n = d.len().max(1) as f64;
+    let mean = d.iter().map(|&v| v as f64).sum::<f64>() / n;
+    let var = d.iter().map(|&v| (v as f64 - mean).powi(2)).sum::<f64>() / n;
+    if mean.abs() < 1e-9 {
+        return 0.0;
+    }
+    (var.sqrt() / mean.abs()) as f32
+}
+
+/// Near-verbatim repetition: the share of textured patches (luminance std
+/// of at least `min_std`) whose nearest other patch at least `min_offset`
+/// pixels away is a near-exact copy (RMS difference under 1.5/255). A
+/// quilt that pastes one distinctive block many times scores high; a
+/// photograph of a natural surface scores near 0.
+pub fn repeated_share(img: &Image, patch: usize, min_offset: usize, seed: u64) -> Result<f32> {
+    let (nnf, inside) = nearest(img, img, patch, Some(min_offset), seed)?;
+    let y = luminance(img);
+    let r = patch / 2;
+    let texels = (patch * patch * img.channels()) as f32;
+    let (mut textured, mut copies) = (0usize, 0usize);
+    for cy in (r..img.height().saturating_sub(r)).step_by(2) {
+        for cx in (r..img.width().saturating_sub(r)).step_by(2) {
+            if !inside.get(cx, cy) {
+                continue;
+            }
+            let (mut s, mut s2) = (0f32, 0f32);
+            for yy in cy - r..=cy + r {
+                for xx in cx - r..=cx + r {
+                    let v = y.at(xx, yy, 0);
+                    s += v;
+                    s2 += v * v;
+                }
+            }
+            let n = (patch * patch) as f32;
+            let std = (s2 / n - (s / n).powi(2)).max(0.0).sqrt();
+            if std < MIN_TEXTURE_STD {
+                continue;
+            }
+            textured += 1;
+            let rms = (nnf.get(cx, cy).cost / texels).max(0.0).sqrt();
+            copies += (rms < 1.5 / 255.0) as usize;
+        }
+    }
+    Ok(if textured == 0 { 0.0 } else { copies as f32 / textured as f32 })
+}
+
+/// Luminance std below which a patch counts as flat (not a feature).
+const MIN_TEXTURE_STD: f32 = 0.04;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::samples;
+
+    #[test]
+    fn a_pasted_grid_and_a_vignette_and_repeated_stamps_are_measured() {
+        let tex = samples::cobbles(192, 192, 2);
+        let base = grid_peak(&tex);
+        // Brightness steps every 32 px (blocks at different exposure).
+        let blocks = Image::from_fn(192, 192, 3, |x, y, p| {
+            let gain = if (x / 32 + y / 32) % 2 == 0 { 1.0 } else { 0.8 };
+            for (c, v) in p.iter_mut().enumerate() {
+                *v = tex.at(x, y, c) * gain;
+            }
+        });
+        assert!(grid_peak(&blocks) > 1.5 * base, "{} vs {base}", grid_peak(&blocks));
+        let lit = Image::from_fn(192, 192, 3, |x, y, p| {
+            let g = 0.4 + 0.6 * x as f32 / 191.0;
+            for (c, v) in p.iter_mut().enumerate() {
+                *v = tex.at(x, y, c) * g;
+            }
+        });
+        assert!(nonstationarity(&lit) > 4.0 * nonstationarity(&tex), "{} vs {}", nonstationarity(&lit), nonstationarity(&tex));
+        // The same 48 px block pasted on a lattice.
+        let stamp = Image::from_fn(192, 192, 3, |x, y, p| p.copy_from_slice(tex.pixel(x % 48 + 20, y % 48 + 20)));
+        let own = repeated_share(&tex, 9, 16, 1).unwrap();
+        let rep = repeated_share(&stamp, 9, 16, 1).unwrap();
+        assert!(own < 0.05 && rep > 0.8, "natural {own}, stamped {rep}");
+    }
+}
