@@ -5,7 +5,7 @@ use crate::progress::with_bar;
 use clap::ValueEnum;
 use patina::image::io::{self, BitDepth};
 use patina::image::Image;
-use patina::synth::{Init, OptimizeParams, QuiltParams, Synthesis, VoteWeights};
+use patina::synth::{Init, OptimizeParams, QuiltParams, Relight, Synthesis, VoteWeights};
 use patina::Result;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -113,6 +113,9 @@ pub struct Args {
     /// Blend blocks linearly across the overlap instead of cutting along the minimum-error seam (quilt).
     #[arg(long)]
     pub no_cut: bool,
+    /// Keep the cut seams as they are instead of blending them in the gradient domain (quilt).
+    #[arg(long)]
+    pub no_blend: bool,
     /// Soften each minimum-error seam over this many pixels on either side (quilt; 0 = a hard cut).
     #[arg(long, default_value_t = 0, value_parser = |s: &str| crate::flags::count(s, 0, 64))]
     pub feather: usize,
@@ -121,6 +124,9 @@ pub struct Args {
     pub transfer_passes: usize,
     #[command(flatten)]
     pub guide: GuideArgs,
+    /// Lighting: keep copies the exemplar's lighting with its patches; flat removes its smooth illumination (vignette, ramp) and lights the output evenly; stretch re-lights with the exemplar's illumination stretched to the output.
+    #[arg(long, default_value = "keep", value_parser = ["keep", "flat", "stretch"])]
+    pub relight: String,
     /// Bits per channel of a PNG output (8 or 16).
     #[arg(long, default_value_t = 8, value_parser = parse_bits)]
     pub bits: u8,
@@ -158,6 +164,7 @@ impl Args {
             feather: self.feather,
             transfer_passes: self.transfer_passes,
             reuse: self.reuse,
+            blend: !self.no_blend,
         }
     }
 }
@@ -208,7 +215,12 @@ pub fn run(args: Args) -> Result<()> {
     manifest.timings_ms.insert("load".into(), clock.lap());
 
     let (image, mut params) = with_bar("synth", |report| -> Result<_> {
-        let mut problem = Synthesis::new(&exemplar).size(size.0, size.1).seed(args.seed).progress(report);
+        let relight = match args.relight.as_str() {
+            "flat" => Relight::Flat,
+            "stretch" => Relight::Stretch,
+            _ => Relight::Keep,
+        };
+        let mut problem = Synthesis::new(&exemplar).size(size.0, size.1).seed(args.seed).progress(report).relight(relight);
         if let Some((s, t)) = &guides {
             problem = problem.guides(s, t, args.guide.guide_weight);
         }
@@ -219,6 +231,7 @@ pub fn run(args: Args) -> Result<()> {
                 p.levels = Some(out.levels);
                 let texels = (p.patch * p.patch) as f32;
                 manifest.metrics.insert("mean_patch_rms".into(), json!((out.nnf.mean_cost(None) / texels).sqrt()));
+                manifest.metrics.insert("lighting".into(), json!(out.lighting));
                 (out.image, json!({ "method": "optimize", "optimize": p }))
             }
             Method::Quilt => {
@@ -226,6 +239,7 @@ pub fn run(args: Args) -> Result<()> {
                 let out = problem.quilt(&p)?;
                 (p.block, p.overlap) = (Some(out.plan.block), Some(out.plan.overlap));
                 manifest.metrics.insert("blocks".into(), json!(out.plan.placements.len()));
+                manifest.metrics.insert("lighting".into(), json!(out.lighting));
                 (out.image, json!({ "method": "quilt", "quilt": p }))
             }
         })
@@ -236,6 +250,7 @@ pub fn run(args: Args) -> Result<()> {
     params["size"] = json!([size.0, size.1]);
     params["guide_weight"] = json!(args.guide.guide_weight);
     params["bits"] = json!(args.bits);
+    params["relight"] = json!(args.relight);
     manifest.params = params;
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.outputs = vec![args.out.clone()];

@@ -8,7 +8,8 @@
 //!
 //!     cargo run --release -p patina --example engine_quality [OUT_DIR] [--lit]
 //!
-//! `--lit` multiplies each exemplar by a vignette and a lighting ramp first;
+//! `--lit` multiplies each exemplar by a vignette and a lighting ramp first,
+//! `--flat` synthesizes with flat re-lighting;
 //! `--levels N` and `--iters K` override the optimizer's defaults, `--only
 //! NAME` runs one exemplar.
 
@@ -76,11 +77,13 @@ fn main() {
         let own = metrics::self_similarity(&ex, 5, 1).expect("self-similarity");
         let grid0 = metrics::grid_peak(&ex);
         let ns0 = metrics::nonstationarity(&ex);
-        patina::image::io::save_png(&ex, Path::new(&out_dir).join(format!("{name}_exemplar.png")), patina::image::io::BitDepth::Eight).unwrap();
+        patina::image::io::save_png(&ex, Path::new(&out_dir).join(format!("{name}_exemplar.png")), patina::image::io::BitDepth::Eight)
+            .unwrap();
         let size = 2 * ex.width();
         for method in ["optimize", "quilt"] {
             let t = Instant::now();
-            let problem = Synthesis::new(&ex).size(size, size).seed(3);
+            let relight = if args.iter().any(|a| a == "--flat") { patina::synth::Relight::Flat } else { patina::synth::Relight::Keep };
+            let problem = Synthesis::new(&ex).size(size, size).seed(3).relight(relight);
             let out = match method {
                 "optimize" => problem.optimize(&optimize).expect("optimize").image,
                 _ => problem.quilt(&QuiltParams::default()).expect("quilt").image,
@@ -97,7 +100,8 @@ fn main() {
                 ns0,
                 rep
             );
-            patina::image::io::save_png(&out, Path::new(&out_dir).join(format!("{name}_{method}.png")), patina::image::io::BitDepth::Eight).unwrap();
+            patina::image::io::save_png(&out, Path::new(&out_dir).join(format!("{name}_{method}.png")), patina::image::io::BitDepth::Eight)
+                .unwrap();
         }
     }
     println!("\npeak RSS {:.0} MiB, {} threads", common::peak_rss_mib(), rayon::current_num_threads());

@@ -21,17 +21,15 @@ const GRID_PERIODS: (usize, usize) = (8, 128);
 pub fn grid_peak(img: &Image) -> f32 {
     let y = luminance(img);
     let (w, h) = y.size();
+    let d = y.data();
     let mut cols = vec![0f64; w.saturating_sub(1)];
     let mut rows = vec![0f64; h.saturating_sub(1)];
-    for yy in 0..h {
-        for xx in 0..w {
-            let v = y.at(xx, yy, 0);
-            if xx + 1 < w {
-                cols[xx] += (y.at(xx + 1, yy, 0) - v).abs() as f64;
-            }
-            if yy + 1 < h {
-                rows[yy] += (y.at(xx, yy + 1, 0) - v).abs() as f64;
-            }
+    for (yy, line) in d.chunks_exact(w).enumerate() {
+        for (c, pair) in cols.iter_mut().zip(line.windows(2)) {
+            *c += (pair[1] - pair[0]).abs() as f64;
+        }
+        if let (Some(r), Some(next)) = (rows.get_mut(yy), d.get((yy + 1) * w..(yy + 2) * w)) {
+            *r = line.iter().zip(next).map(|(a, b)| (b - a).abs() as f64).sum();
         }
     }
     comb_peak(&cols).max(comb_peak(&rows)) as f32

@@ -223,7 +223,9 @@ mod tests {
         let sources: Vec<(u32, u32)> =
             (0..w * h).map(|i| ((i % w) as u32 + if i % w < 48 { 0 } else { w as u32 }, (i / w) as u32)).collect();
         let step = |img: &Image| -> f32 {
-            let mean = |x0: usize| (0..h).flat_map(|y| (x0..x0 + 4).map(move |x| (x, y))).map(|(x, y)| img.at(x, y, 0)).sum::<f32>() / (4 * h) as f32;
+            let mean = |x0: usize| {
+                (0..h).flat_map(|y| (x0..x0 + 4).map(move |x| (x, y))).map(|(x, y)| img.at(x, y, 0)).sum::<f32>() / (4 * h) as f32
+            };
             (mean(48) - mean(44)).abs()
         };
         let blended = blend_seams(&composite, &source, &sources);

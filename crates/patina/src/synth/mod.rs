@@ -11,6 +11,7 @@
 pub mod blend;
 pub mod correlate;
 pub mod distance;
+pub mod lighting;
 pub mod nnf;
 pub mod optimize;
 pub mod patchmatch;
@@ -19,6 +20,7 @@ pub mod quilt;
 pub mod vote;
 
 pub use distance::{GroupDistance, PatchMetric, TexelDistance};
+pub use lighting::{LightingReport, Relight};
 pub use nnf::{Match, Nnf, SourceDomain};
 pub use optimize::{Init, OptimizeParams, Synthesized};
 pub use patchmatch::PatchMatch;

@@ -93,6 +93,8 @@ pub struct Synthesized {
     pub nnf: Nnf,
     /// Pyramid levels used.
     pub levels: usize,
+    /// What lighting-aware synthesis separated, when asked for.
+    pub lighting: Option<super::lighting::LightingReport>,
 }
 
 /// Smallest coarsest-level side when the pyramid starts from a quilt. The
@@ -189,6 +191,10 @@ impl Synthesis<'_> {
 
     /// Synthesize by texture optimization.
     pub fn optimize(&self, params: &OptimizeParams) -> Result<Synthesized> {
+        self.with_lighting(|s| s.optimize_as_is(params), |r| (&mut r.image, &mut r.lighting))
+    }
+
+    fn optimize_as_is(&self, params: &OptimizeParams) -> Result<Synthesized> {
         if params.patch < 3 || params.patch.is_multiple_of(2) || params.patch > super::distance::MAX_PATCH {
             return Err(Error::invalid(format!("patch size must be odd and in 3..={}, got {}", super::distance::MAX_PATCH, params.patch)));
         }
@@ -309,6 +315,6 @@ impl Synthesis<'_> {
         }
         let mut image = target;
         image.set_groups(src.groups().to_vec())?;
-        Ok(Synthesized { image, nnf: nnf.expect("at least one level"), levels })
+        Ok(Synthesized { image, nnf: nnf.expect("at least one level"), levels, lighting: None })
     }
 }

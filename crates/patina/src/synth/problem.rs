@@ -30,6 +30,7 @@ pub struct Synthesis<'a> {
     pub(crate) metric: Option<PatchMetric>,
     pub(crate) seed: u64,
     pub(crate) progress: Option<Progress<'a>>,
+    pub(crate) relight: super::lighting::Relight<'a>,
 }
 
 impl<'a> Synthesis<'a> {
@@ -47,7 +48,45 @@ impl<'a> Synthesis<'a> {
             metric: None,
             seed: 0,
             progress: None,
+            relight: super::lighting::Relight::Keep,
         }
+    }
+    /// Lighting-aware synthesis ([`super::lighting`]): separate the
+    /// exemplar's smooth illumination, synthesize its detail, and light the
+    /// output as `relight` says. `Keep` (the default) copies the lighting
+    /// with the patches.
+    pub fn relight(mut self, relight: super::lighting::Relight<'a>) -> Self {
+        self.relight = relight;
+        self
+    }
+
+    /// Run `synthesize` on the exemplar's detail layer when re-lighting is
+    /// asked for, and re-light its image; else run it as it is.
+    pub(crate) fn with_lighting<T>(
+        &self,
+        synthesize: impl FnOnce(&Synthesis) -> Result<T>,
+        image: impl FnOnce(&mut T) -> (&mut Image, &mut Option<super::lighting::LightingReport>),
+    ) -> Result<T> {
+        use super::lighting::{relight, separate, LightingReport, Relight};
+        if matches!(self.relight, Relight::Keep) {
+            return synthesize(self);
+        }
+        let sep = separate(self.source);
+        let mut inner = self.clone();
+        inner.source = &sep.detail;
+        inner.relight = Relight::Keep;
+        let mut result = synthesize(&inner)?;
+        let (img, report) = image(&mut result);
+        let groups = img.groups().to_vec();
+        *img = relight(img, &sep, self.relight)?;
+        img.set_groups(groups)?;
+        *report = Some(LightingReport {
+            relight: self.relight.name(),
+            exemplar_nonstationarity: crate::metrics::nonstationarity(self.source),
+            detail_nonstationarity: crate::metrics::nonstationarity(&sep.detail),
+            sigma: sep.sigma,
+        });
+        Ok(result)
     }
     /// Output size (default: the target guide's, the filled image's, or the source's).
     pub fn size(mut self, width: usize, height: usize) -> Self {

@@ -62,6 +62,10 @@ pub struct QuiltParams {
     /// exemplar spot. Without it, exemplars with easy smooth areas (peeling
     /// paint) get the same few blocks repeated on a grid. 0 turns it off.
     pub reuse: f32,
+    /// Blend the seams in the gradient domain after cutting ([`super::blend`]):
+    /// blocks whose brightness differs meet without a visible step. Not
+    /// applied to texture transfer (guided quilting).
+    pub blend: bool,
 }
 
 impl Default for QuiltParams {
@@ -75,6 +79,7 @@ impl Default for QuiltParams {
             feather: 0,
             transfer_passes: 3,
             reuse: 0.5,
+            blend: true,
         }
     }
 }
@@ -129,6 +134,8 @@ pub struct QuiltPlan {
 pub struct Quilted {
     pub image: Image,
     pub plan: QuiltPlan,
+    /// What lighting-aware synthesis separated, when asked for.
+    pub lighting: Option<super::lighting::LightingReport>,
 }
 
 impl QuiltPlan {
@@ -144,6 +151,16 @@ impl QuiltPlan {
             )));
         }
         let mut out = self.render_with(source.channels(), |_, (sx, sy), _, px| px.copy_from_slice(source.pixel(sx, sy)));
+        out.set_groups(source.groups().to_vec())?;
+        Ok(out)
+    }
+
+    /// [`QuiltPlan::render`], then the seams blended in the gradient domain
+    /// ([`super::blend::blend_seams`]): each frame of a time column gets
+    /// its own blend from its own exemplar frame, so no seam flickers.
+    pub fn render_seamless(&self, source: &Image) -> Result<Image> {
+        let composite = self.render(source)?;
+        let mut out = super::blend::blend_seams(&composite, source, &self.source_positions());
         out.set_groups(source.groups().to_vec())?;
         Ok(out)
     }
@@ -520,6 +537,10 @@ fn feathered(keep: &[f32], bw: usize, bh: usize, r: usize, band: impl Fn(usize, 
 impl Synthesis<'_> {
     /// Synthesize by image quilting; with guides, by texture transfer.
     pub fn quilt(&self, params: &QuiltParams) -> Result<Quilted> {
+        self.with_lighting(|s| s.quilt_as_is(params), |r| (&mut r.image, &mut r.lighting))
+    }
+
+    fn quilt_as_is(&self, params: &QuiltParams) -> Result<Quilted> {
         let src = self.source;
         let (block, overlap) = params.resolve(src.width(), src.height())?;
         let (w, h) = self.validate(block.0.min(block.1))?;
@@ -574,7 +595,14 @@ impl Synthesis<'_> {
             plan = Some(p);
         }
         let plan = plan.expect("at least one pass");
-        Ok(Quilted { image: previous.expect("at least one pass"), plan })
+        // Texture transfer's seams separate what the guides asked for (two
+        // materials side by side): blending would wash that out.
+        let image = if params.blend && params.boundary_cut && guided.is_none() {
+            plan.render_seamless(src)?
+        } else {
+            previous.expect("at least one pass")
+        };
+        Ok(Quilted { image, plan, lighting: None })
     }
 }
 
@@ -593,7 +621,7 @@ mod tests {
     #[test]
     fn a_plan_renders_the_same_blocks_onto_any_channels() {
         let src = crate::samples::cobbles(64, 64, 2);
-        let q = Synthesis::new(&src).size(100, 90).seed(5).quilt(&QuiltParams::default()).unwrap();
+        let q = Synthesis::new(&src).size(100, 90).seed(5).quilt(&QuiltParams { blend: false, ..QuiltParams::default() }).unwrap();
         assert_eq!(q.image.size(), (100, 90));
         // Rendering the exemplar again gives the same image; rendering a
         // coordinate image tells where each output pixel came from.

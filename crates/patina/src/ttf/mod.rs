@@ -141,6 +141,11 @@ pub fn synthesize(
     let warps: Vec<TimeWarp> =
         (0..plan.placements.len()).map(|i| TimeWarp::jittered(n, params.jitter, rng::derive(seed, &[2, i as u64]))).collect();
     let done = std::sync::atomic::AtomicU64::new(0);
+    // Seams are blended per frame in the gradient domain, against the input
+    // frame of the same time (jittered or rate-warped blocks differ from it
+    // only slightly in their gradients, and their brightness jumps are what
+    // the blend removes).
+    let positions = (params.quilt.blend && params.quilt.boundary_cut).then(|| plan.source_positions());
     let mut out: Vec<Image> = (0..out_frames)
         .into_par_iter()
         .map(|t| {
@@ -151,6 +156,10 @@ pub fn synthesize(
                 };
                 sample(frames, sx, sy, warps[i].at(s), px);
             });
+            let img = match &positions {
+                Some(p) => crate::synth::blend::blend_seams(&img, &frames[t.min(n - 1)], p),
+                None => img,
+            };
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             report(60 + 40 * d / out_frames as u64);
             img
