@@ -73,7 +73,7 @@ fn jitter_shows_one_source_blocks_events_at_different_times_within_e() {
     let input: Vec<Image> = (0..50).map(|t| if t < 25 { tex.clone() } else { tex.map(|v| v + 0.5) }).collect();
     let params = |jitter: f32| TtfParams {
         jitter,
-        quilt: QuiltParams { block: Some((40, 40)), overlap: Some((8, 8)), ..QuiltParams::default() },
+        quilt: QuiltParams { block: Some((40, 40)), overlap: Some((8, 8)), ..TtfParams::default().quilt },
         ..TtfParams::default()
     };
     let event_times = |out: &Ttf| -> Vec<usize> {
@@ -134,7 +134,7 @@ fn elongated_blocks_flattening_and_thread_count_independence() {
         jitter: 2.0,
         flatten: true,
         keep_gradient: true,
-        quilt: QuiltParams { block: Some((48, 12)), overlap: Some((6, 3)), ..QuiltParams::default() },
+        quilt: QuiltParams { block: Some((48, 12)), overlap: Some((6, 3)), ..TtfParams::default().quilt },
         ..TtfParams::default()
     };
     let with = |threads: usize| {
