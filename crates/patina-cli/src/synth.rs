@@ -83,7 +83,7 @@ pub struct Args {
     /// Pyramid levels (optimize) [default: as many as keep the coarsest level 4 patches wide].
     #[arg(long, value_parser = |s: &str| crate::flags::count(s, 1, 16))]
     pub levels: Option<usize>,
-    /// Uniformity weight: penalises reusing the same exemplar patches (optimize; 0 = off; EbSynth's 3500 in 8-bit units).
+X
     #[arg(long, default_value_t = 3500.0 / 65025.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub uniformity: f32,
     /// How overlapping patches are combined (optimize).
@@ -108,7 +108,7 @@ pub struct Args {
     #[arg(long, default_value_t = 3, value_parser = |s: &str| crate::flags::count(s, 1, 1000))]
     pub min_candidates: usize,
     /// Reuse penalty: a candidate block's cost grows by this factor per block already taken from around the same exemplar spot (quilt; 0 = off, as in the paper).
-    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    #[arg(long, default_value_t = QuiltParams::default().reuse, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub reuse: f32,
     /// Blend blocks linearly across the overlap instead of cutting along the minimum-error seam (quilt).
     #[arg(long)]

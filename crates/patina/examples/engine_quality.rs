@@ -10,7 +10,9 @@
 //!
 //! `--lit` multiplies each exemplar by a vignette and a lighting ramp first,
 //! `--flat` synthesizes with flat re-lighting;
-//! `--levels N` and `--iters K` override the optimizer's defaults, `--only
+//! `--levels N`, `--iters K`, `--patch P`, `--uniformity U` and `--robust`
+//! (robust voting) override the
+//! optimizer's defaults, `--only
 //! NAME` runs one exemplar.
 
 mod common;
@@ -61,6 +63,13 @@ fn main() {
     let mut optimize = OptimizeParams::default();
     optimize.levels = flag("--levels").or(optimize.levels);
     optimize.search_vote_iters = flag("--iters").unwrap_or(optimize.search_vote_iters);
+    optimize.patch = flag("--patch").unwrap_or(optimize.patch);
+    if let Some(u) = args.iter().position(|a| a == "--uniformity").and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<f32>().ok()) {
+        optimize.uniformity = u;
+    }
+    if args.iter().any(|a| a == "--robust") {
+        optimize.vote = patina::synth::VoteWeights::Robust;
+    }
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).cloned();
     let out_dir = args.first().filter(|a| !a.starts_with("--")).cloned().unwrap_or_else(|| "/tmp/patina-engine".into());
     std::fs::create_dir_all(&out_dir).expect("output folder");

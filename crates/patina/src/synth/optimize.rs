@@ -63,7 +63,8 @@ pub enum Init {
     /// grain keep their structure, while the optimization heals the seams
     /// (the "quilt-then-optimize" of DESIGN.md; mean voting over many
     /// misaligned candidates at coarse levels is what smeared structure).
-    /// Falls back to `Blocks` when filling a hole.
+    /// The uniformity penalty is not applied (the quilt's reuse penalty
+    /// spreads the sources). Falls back to `Blocks` when filling a hole.
     QuiltSeams,
 }
 
@@ -282,7 +283,12 @@ impl Synthesis<'_> {
                 radius: r,
                 iterations: params.patchmatch_iters,
                 metric: &search_metric,
-                uniformity: params.uniformity,
+                // Seams only: the quilt's reuse penalty already spread the
+                // sources, and the verbatim interiors' occupancy would push
+                // the seam band away from continuing its own blocks (on the
+                // real exemplars of examples/engine_quality this doubled
+                // the coherence distance).
+                uniformity: if seams_only { 0.0 } else { params.uniformity },
                 max_search_radius: None,
                 exclude_self: None,
             };
