@@ -83,7 +83,7 @@ pub struct Args {
     /// Pyramid levels (optimize) [default: as many as keep the coarsest level 4 patches wide].
     #[arg(long, value_parser = |s: &str| crate::flags::count(s, 1, 16))]
     pub levels: Option<usize>,
-X
+    /// Uniformity weight: penalises reusing the same exemplar patches (optimize; 0 = off; EbSynth's 3500 in 8-bit units; not used by --init quilt-seams, whose quilt spreads its sources with --reuse).
     #[arg(long, default_value_t = 3500.0 / 65025.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub uniformity: f32,
     /// How overlapping patches are combined (optimize).
