@@ -24,7 +24,7 @@ pub enum Relight<'a> {
     /// No separation: the exemplar's lighting is copied with its patches.
     #[default]
     Keep,
-    /// Evenly, at the exemplar's mean brightness.
+    /// Evenly, at the exemplar's mean luminance.
     Flat,
     /// With the exemplar's own field stretched to the output's size.
     Stretch,
@@ -52,6 +52,8 @@ pub struct Separation {
     /// Log illumination relative to its mean (1 channel, exemplar size).
     pub log_field: Image,
     pub sigma: f32,
+    /// The exemplar's mean luminance (flat re-lighting matches it).
+    pub mean_luminance: f32,
 }
 
 /// Floor added to luminance before the logarithm (dark pixels).
@@ -60,7 +62,9 @@ const LOG_FLOOR: f32 = 1e-3;
 /// Split `img` into detail and illumination.
 pub fn separate(img: &Image) -> Separation {
     let sigma = img.width().min(img.height()) as f32 / 8.0;
-    let log_lum = luminance(img).map(|v| (v.max(0.0) + LOG_FLOOR).ln());
+    let lum = luminance(img);
+    let mean_luminance = mean(&lum);
+    let log_lum = lum.map(|v| (v.max(0.0) + LOG_FLOOR).ln());
     let mut field = gaussian_blur(&log_lum, sigma);
     let mean = field.data().iter().map(|&v| v as f64).sum::<f64>() as f32 / field.data().len().max(1) as f32;
     field.data_mut().iter_mut().for_each(|v| *v -= mean);
@@ -70,14 +74,24 @@ pub fn separate(img: &Image) -> Separation {
         let gain = (-f).exp();
         px.iter_mut().for_each(|v| *v *= gain);
     }
-    Separation { detail, log_field: field, sigma }
+    Separation { detail, log_field: field, sigma, mean_luminance }
+}
+
+fn mean(img: &Image) -> f32 {
+    (img.data().iter().map(|&v| v as f64).sum::<f64>() / img.data().len().max(1) as f64) as f32
 }
 
 /// Re-light a synthesized detail image.
 pub fn relight(detail: &Image, sep: &Separation, how: Relight) -> Result<Image> {
     let (w, h) = detail.size();
     let gain: Option<Vec<f32>> = match how {
-        Relight::Keep | Relight::Flat => None,
+        Relight::Keep => None,
+        // Dividing by the field leaves the geometric mean brightness, darker
+        // than the exemplar's under a strong vignette: scale back to its mean.
+        Relight::Flat => {
+            let m = mean(&luminance(detail));
+            Some(vec![if m > 0.0 { sep.mean_luminance / m } else { 1.0 }; w * h])
+        }
         Relight::Stretch => Some(resize(&sep.log_field, w, h, Filter::Linear)?.data().iter().map(|v| v.exp()).collect()),
         Relight::Image(g) => {
             if g.size() != (w, h) {
@@ -145,6 +159,10 @@ mod tests {
             let after = nonstationarity(&out);
             assert!(after < 0.5 * before, "{name}: {after} of {before} left");
         }
+        // Flat keeps the exemplar's mean brightness.
+        let flat = Synthesis::new(&ex).size(192, 192).seed(2).relight(Relight::Flat).quilt(&QuiltParams::default()).unwrap().image;
+        let (a, b) = (mean(&luminance(&flat)), mean(&luminance(&ex)));
+        assert!((a - b).abs() < 0.01, "flat mean {a} vs exemplar {b}");
         // Without separation, the lighting is copied piecewise.
         let kept = Synthesis::new(&ex).size(192, 192).seed(2).quilt(&QuiltParams::default()).unwrap().image;
         assert!(nonstationarity(&kept) > 0.5 * before, "kept {} of {before}", nonstationarity(&kept));

@@ -64,9 +64,15 @@ pub enum Init {
     /// (the "quilt-then-optimize" of DESIGN.md; mean voting over many
     /// misaligned candidates at coarse levels is what smeared structure).
     /// The uniformity penalty is not applied (the quilt's reuse penalty
-    /// spreads the sources). Falls back to `Blocks` when filling a hole.
+    /// spreads the sources), and at most [`SEAM_ITERS`] iterations run.
+    /// Falls back to `Blocks` when filling a hole.
     QuiltSeams,
 }
+
+/// Most search + vote iterations of [`Init::QuiltSeams`]: the seams settle
+/// by then (on the 8 real exemplars of examples/engine_quality, 3 gave the
+/// same coherence and completeness as 6, in 60% of the time).
+pub const SEAM_ITERS: usize = 3;
 
 /// Block side, in coarsest-level pixels, of [`Init::Blocks`].
 pub const INIT_BLOCK: usize = 8;
@@ -130,6 +136,17 @@ fn mask_down(m: &Mask, any: bool) -> Mask {
     })
 }
 
+/// Pixels whose right or lower neighbour was not copied from the next
+/// exemplar pixel: where two blocks meet.
+fn cut_lines(positions: &[(u32, u32)], w: usize, h: usize) -> Mask {
+    Mask::from_fn(w, h, |x, y| {
+        let p = positions[y * w + x];
+        let right = x + 1 < w && positions[y * w + x + 1] != (p.0 + 1, p.1);
+        let below = y + 1 < h && positions[(y + 1) * w + x] != (p.0, p.1 + 1);
+        right || below
+    })
+}
+
 /// Pixels where some channel differs by at least `threshold`.
 fn changed(a: &Image, b: &Image, threshold: f32) -> Mask {
     let n = a.channels();
@@ -143,9 +160,11 @@ fn changed(a: &Image, b: &Image, threshold: f32) -> Mask {
 impl Synthesis<'_> {
     /// A field copying an image quilt of `style` (guided by the guides, if
     /// any) at `size`; positions outside `domain` are clamped into it.
-    /// With `seams_only`, the quilt uses the quilting defaults' blocks (a
-    /// full-resolution quilt); else blocks of a third of the style's side.
-    /// Also returns where blocks overlap (the seams).
+    /// With `seams_only`, a full-resolution quilt with blocks of a quarter
+    /// of the style's side (8..=128); else blocks of a third of it.
+    /// Also returns the seams: the pixels where the source position does
+    /// not continue to the right or below (the cut lines, not the whole
+    /// overlap bands).
     #[allow(clippy::too_many_arguments)]
     fn quilt_field(
         &self,
@@ -172,15 +191,20 @@ impl Synthesis<'_> {
             problem = problem.metric(m.clone());
         }
         let params = if seams_only {
-            QuiltParams::default()
+            // The quilting default's block (a quarter of the exemplar's
+            // side), capped at 128 rather than 64: large exemplars keep more
+            // structure per block, and a 512 -> 4096 quilt has a quarter as
+            // many blocks to search for.
+            let block = (style.width().min(style.height()) / 4).clamp(8, 128);
+            QuiltParams { block: Some((block, block)), ..QuiltParams::default() }
         } else {
             let block = (style.width().min(style.height()) / 3).max(2 * domain.radius() + 3);
             QuiltParams { block: Some((block, block)), ..QuiltParams::default() }
         };
         let plan = problem.quilt(&params)?.plan;
-        let seams = plan.overlap_mask();
-        let matches = plan
-            .source_positions()
+        let positions = plan.source_positions();
+        let seams = cut_lines(&positions, size.0, size.1);
+        let matches = positions
             .into_iter()
             .map(|(x, y)| {
                 let (cx, cy) = domain.clamp(x as i64, y as i64);
@@ -228,7 +252,8 @@ impl Synthesis<'_> {
         }
 
         let metric: PatchMetric = self.full_metric();
-        let total: u64 = sizes.iter().map(|(a, b)| (a * b * params.search_vote_iters) as u64).sum();
+        let iterations = if seams_only { params.search_vote_iters.min(SEAM_ITERS) } else { params.search_vote_iters };
+        let total: u64 = sizes.iter().map(|(a, b)| (a * b * iterations) as u64).sum();
         let mut done = 0u64;
         let mut nnf: Option<Nnf> = None;
         let mut seams: Option<Mask> = None;
@@ -254,7 +279,7 @@ impl Synthesis<'_> {
                         let allowed = allowed_pyr.as_ref().map(|p| &p[level]);
                         match self.quilt_field(style, sg, tg, allowed, (tw, th), &domain, level_seed, seams_only) {
                             Ok((field, overlap)) => {
-                                seams = seams_only.then(|| overlap.dilate(r + 1));
+                                seams = seams_only.then(|| overlap.dilate(2 * r + 2));
                                 field
                             }
                             // A scattered source mask may leave no room for a whole block.
@@ -293,7 +318,7 @@ impl Synthesis<'_> {
                 exclude_self: None,
             };
             let mut active: Option<Mask> = search.clone().or(seams.take());
-            for it in 0..params.search_vote_iters {
+            for it in 0..iterations {
                 let mut parts = vec![&target];
                 if let Some(g) = &tguide_pyr {
                     parts.push(&g[level]);
