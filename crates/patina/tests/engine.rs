@@ -225,3 +225,37 @@ fn bad_problems_are_clear_errors() {
         Err(Error::InvalidInput(_))
     ));
 }
+
+/// Copies of a red disc in `img`: red pixels over one disc's area.
+fn red_copies(img: &Image, disc_area: f32) -> f32 {
+    img.data().chunks_exact(3).filter(|p| p[0] > 0.8 && p[1] < 0.3).count() as f32 / disc_area
+}
+
+#[test]
+fn one_distinctive_feature_is_not_stamped_beyond_its_share() {
+    // One red disc on a stochastic ground; a 2x enlargement has 4x the
+    // area, so about 4 discs is its fair share.
+    let ground = samples::blotches(96, 96, 7);
+    let ex = Image::from_fn(96, 96, 3, |x, y, p| {
+        let d = ((x as f32 - 40.0).powi(2) + (y as f32 - 52.0).powi(2)).sqrt();
+        if d < 6.0 {
+            p.copy_from_slice(&[0.95, 0.1, 0.1]);
+        } else {
+            p.copy_from_slice(ground.pixel(x, y));
+        }
+    });
+    let area = red_copies(&ex, 1.0);
+    let (mut bounded, mut free_total) = (0.0, 0.0);
+    for seed in 0..3 {
+        let quilt = Synthesis::new(&ex).size(192, 192).seed(seed).quilt(&QuiltParams::default()).unwrap().image;
+        let optimized = Synthesis::new(&ex).size(192, 192).seed(seed).optimize(&OptimizeParams::default()).unwrap().image;
+        let free = QuiltParams { reuse: 0.0, ..QuiltParams::default() };
+        let unbounded = Synthesis::new(&ex).size(192, 192).seed(seed).quilt(&free).unwrap().image;
+        let (q, o, u) = (red_copies(&quilt, area), red_copies(&optimized, area), red_copies(&unbounded, area));
+        eprintln!("seed {seed}: disc copies quilt {q:.1}, optimize {o:.1}, without the reuse bound {u:.1}");
+        assert!(q <= 6.0 && o <= 6.0, "seed {seed}: quilt {q:.1}, optimize {o:.1} copies of one disc (fair share 4)");
+        bounded += q;
+        free_total += u;
+    }
+    assert!(bounded < free_total, "the reuse bound does not lower the copies: {bounded:.1} vs {free_total:.1} over 3 seeds");
+}

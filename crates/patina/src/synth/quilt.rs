@@ -306,10 +306,15 @@ fn vertical_cut(err: &[f32], cols: usize, rows: usize) -> Vec<usize> {
     path
 }
 
-/// How many blocks were taken from each cell (half a block wide) of the
-/// exemplar, counted after each wave so the counts never depend on threads.
+/// How often each part of the exemplar has been pasted: a coverage count
+/// per cell (a quarter of a block wide), raised over every cell a pasted
+/// block's source rectangle covers, counted after each wave so the counts
+/// never depend on threads. A candidate's reuse is the mean coverage over
+/// its own rectangle: a distinctive feature used by many blocks, whatever
+/// their exact offsets, makes every candidate holding it expensive.
 struct Usage {
     cell: (usize, usize),
+    block: (usize, usize),
     cols: usize,
     rows: usize,
     counts: Vec<u32>,
@@ -317,23 +322,35 @@ struct Usage {
 
 impl Usage {
     fn new(source: (usize, usize), block: (usize, usize)) -> Self {
-        let cell = ((block.0 / 2).max(1), (block.1 / 2).max(1));
+        let cell = ((block.0 / 4).max(1), (block.1 / 4).max(1));
         let (cols, rows) = (source.0.div_ceil(cell.0), source.1.div_ceil(cell.1));
-        Usage { cell, cols, rows, counts: vec![0; cols * rows] }
+        Usage { cell, block, cols, rows, counts: vec![0; cols * rows] }
+    }
+    /// The cells a block from (sx, sy) covers.
+    fn cells(&self, sx: usize, sy: usize) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+        let x1 = ((sx + self.block.0).div_ceil(self.cell.0)).min(self.cols);
+        let y1 = ((sy + self.block.1).div_ceil(self.cell.1)).min(self.rows);
+        (sx / self.cell.0..x1, sy / self.cell.1..y1)
     }
     fn add(&mut self, sx: usize, sy: usize) {
-        self.counts[(sy / self.cell.1) * self.cols + sx / self.cell.0] += 1;
-    }
-    /// Blocks taken from the 3 x 3 cells around (sx, sy).
-    fn around(&self, sx: usize, sy: usize) -> u32 {
-        let (cx, cy) = (sx / self.cell.0, sy / self.cell.1);
-        let mut n = 0;
-        for y in cy.saturating_sub(1)..=(cy + 1).min(self.rows - 1) {
-            for x in cx.saturating_sub(1)..=(cx + 1).min(self.cols - 1) {
-                n += self.counts[y * self.cols + x];
+        let (xs, ys) = self.cells(sx, sy);
+        for y in ys {
+            for x in xs.clone() {
+                self.counts[y * self.cols + x] += 1;
             }
         }
-        n
+    }
+    /// Mean coverage over the cells a block from (sx, sy) would take.
+    fn around(&self, sx: usize, sy: usize) -> f32 {
+        let (xs, ys) = self.cells(sx, sy);
+        let (mut sum, mut n) = (0u32, 0u32);
+        for y in ys {
+            for x in xs.clone() {
+                sum += self.counts[y * self.cols + x];
+                n += 1;
+            }
+        }
+        sum as f32 / n.max(1) as f32
     }
 }
 
@@ -418,7 +435,7 @@ impl Pass<'_> {
                 costs.iter_mut().zip(u).filter(|(_, ok)| !**ok).for_each(|(c, _)| *c = f32::INFINITY);
             }
             let exact = |sx: usize, sy: usize| {
-                let reuse = 1.0 + self.params.reuse * usage.around(sx, sy) as f32;
+                let reuse = 1.0 + self.params.reuse * usage.around(sx, sy);
                 let mut e = 0.0;
                 if m_sum > 0.0 {
                     e += scales.0 * masked_ssd(self.source, self.weights, &template, &overlap_mask, bw, bh, sx, sy);
