@@ -159,8 +159,10 @@ mod tests {
             let after = nonstationarity(&out);
             assert!(after < 0.5 * before, "{name}: {after} of {before} left");
         }
-        // Flat keeps the exemplar's mean brightness.
+        // Flat keeps the exemplar's mean brightness, and the quilt shows no block grid.
         let flat = Synthesis::new(&ex).size(192, 192).seed(2).relight(Relight::Flat).quilt(&QuiltParams::default()).unwrap().image;
+        let (g, g0) = (crate::metrics::grid_peak(&flat), crate::metrics::grid_peak(&ex));
+        assert!(g <= 1.5 * g0, "grid peak {g} vs the exemplar's {g0}");
         let (a, b) = (mean(&luminance(&flat)), mean(&luminance(&ex)));
         assert!((a - b).abs() < 0.01, "flat mean {a} vs exemplar {b}");
         // Without separation, the lighting is copied piecewise.
