@@ -86,17 +86,20 @@ fn load_folder(dir: &Path) -> Result<Sequence> {
     files.sort_by(|a, b| natural_cmp(&a.to_string_lossy(), &b.to_string_lossy()));
     check_count(files.len(), dir)?;
     // Every frame's header first: the whole sequence must fit the budget
-    // (all frames as f32, plus one frame's decoding) before any is decoded.
+    // (its files, all frames as f32, plus one frame's decoding) before any
+    // is decoded. Each file is read once and decoded from those bytes.
+    let mut files_bytes = Vec::with_capacity(files.len());
     let mut total: u128 = 0;
     let mut peak: u128 = 0;
     for f in &files {
         let bytes = std::fs::read(f).map_err(|source| Error::Read { path: f.clone(), source })?;
         let h = read_header(&bytes, f)?;
-        total += (h.width * h.height * h.channels) as u128 * 4;
+        total += (h.width * h.height * h.channels) as u128 * 4 + bytes.len() as u128;
         peak = peak.max(h.decode_bytes());
+        files_bytes.push(bytes);
     }
     super::budget::check(|| format!("{} frames from {}", files.len(), dir.display()), total + peak)?;
-    let frames = files.iter().map(super::io::load).collect::<Result<Vec<_>>>()?;
+    let frames = files.iter().zip(files_bytes).map(|(f, bytes)| decode(&bytes, f)).collect::<Result<Vec<_>>>()?;
     Ok(Sequence { frames, names: files.iter().map(|p| p.display().to_string()).collect() })
 }
 
