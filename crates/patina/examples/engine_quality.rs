@@ -46,16 +46,6 @@ fn exemplar(file: &str) -> Option<Image> {
     Some(if img.channels() > 3 { img.select_channels(0..3) } else { img })
 }
 
-/// A vignette times a left-to-right ramp (0.55 to 1.0).
-fn lit(img: &Image) -> Image {
-    let (w, h) = img.size();
-    Image::from_fn(w, h, img.channels(), |x, y, p| {
-        let (u, v) = (x as f32 / w as f32 - 0.5, y as f32 / h as f32 - 0.5);
-        let g = (1.0 - 0.9 * (u * u + v * v)) * (0.55 + 0.45 * x as f32 / w as f32);
-        p.iter_mut().zip(img.pixel(x, y)).for_each(|(o, c)| *o = c * g);
-    })
-}
-
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let lit_mode = args.iter().any(|a| a == "--lit");
@@ -81,7 +71,7 @@ fn main() {
         }
         let Some(mut ex) = exemplar(file) else { continue };
         if lit_mode {
-            ex = lit(&ex);
+            ex = patina::samples::lit(&ex);
         }
         let own = metrics::self_similarity(&ex, 5, 1).expect("self-similarity");
         let grid0 = metrics::grid_peak(&ex);

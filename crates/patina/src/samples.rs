@@ -35,6 +35,18 @@ pub fn fractal_noise(seed: u64, x: f32, y: f32, scale: f32, octaves: usize) -> f
     sum / norm
 }
 
+/// `img` under a capture's lighting: a vignette (0.55 at the corners) times
+/// a left-to-right ramp from 0.55 to 1.0, on every channel. The ground
+/// truth for lighting-aware synthesis.
+pub fn lit(img: &Image) -> Image {
+    let (w, h) = img.size();
+    Image::from_fn(w, h, img.channels(), |x, y, p| {
+        let (u, v) = (x as f32 / w as f32 - 0.5, y as f32 / h as f32 - 0.5);
+        let g = (1.0 - 0.9 * (u * u + v * v)) * (0.55 + 0.45 * x as f32 / w as f32);
+        p.iter_mut().zip(img.pixel(x, y)).for_each(|(o, c)| *o = c * g);
+    })
+}
+
 /// Running-bond brick wall: bricks of 30 x 12 px with 3 px mortar, a colour
 /// per brick and grain noise. Strong regular structure: seams and
 /// misaligned mortar lines show at once.

@@ -134,20 +134,10 @@ mod tests {
     use crate::samples;
     use crate::synth::{OptimizeParams, QuiltParams, Synthesis};
 
-    /// A stationary texture under a vignette and a lighting ramp.
-    fn lit(tex: &Image) -> Image {
-        let (w, h) = tex.size();
-        Image::from_fn(w, h, tex.channels(), |x, y, p| {
-            let (u, v) = (x as f32 / w as f32 - 0.5, y as f32 / h as f32 - 0.5);
-            let g = (1.0 - 0.9 * (u * u + v * v)) * (0.55 + 0.45 * x as f32 / w as f32);
-            p.iter_mut().zip(tex.pixel(x, y)).for_each(|(o, c)| *o = c * g);
-        })
-    }
-
     #[test]
     fn flat_relighting_removes_most_of_a_vignette_and_ramp() {
         let tex = samples::cobbles(128, 128, 4);
-        let ex = lit(&tex);
+        let ex = samples::lit(&tex);
         let before = nonstationarity(&ex);
         for (name, out) in [
             (
