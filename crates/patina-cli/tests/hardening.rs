@@ -2,6 +2,9 @@
 //! traversal, crashes on crafted input, unbounded work, wrong answers to bad
 //! input, and output folders that must behave as transactions.
 
+mod fuzz_support;
+
+use fuzz_support::crc32;
 use patina::image::io::{encode_png, save_exr, save_png, BitDepth};
 use patina::image::Image;
 use std::path::{Path, PathBuf};
@@ -58,13 +61,19 @@ fn texture(w: usize, h: usize) -> Image {
     patina::samples::cobbles(w, h, 3)
 }
 
-/// A fitted material in `dir/mat` from a small procedural time-lapse.
-fn material(dir: &Path) -> PathBuf {
+/// A 6-frame procedural rusting time-lapse of `side` px in `dir/steps`.
+fn timelapse_steps(dir: &Path, side: usize) -> PathBuf {
     let steps = dir.join("steps");
     std::fs::create_dir_all(&steps).unwrap();
-    for (i, f) in patina::samples::rusting_timelapse(24, 24, 6, 1).iter().enumerate() {
+    for (i, f) in patina::samples::rusting_timelapse(side, side, 6, 1).iter().enumerate() {
         save_png(f, steps.join(format!("{i:02}.png")), BitDepth::Eight).unwrap();
     }
+    steps
+}
+
+/// A fitted material in `dir/mat` from a small procedural time-lapse.
+fn material(dir: &Path) -> PathBuf {
+    let steps = timelapse_steps(dir, 24);
     let mat = dir.join("mat");
     ok(&["stbrdf", "fit", s(&steps), "-o", s(&mat), "--degree", "2"]);
     mat
@@ -153,17 +162,6 @@ fn chunk(kind: &[u8], data: &[u8]) -> Vec<u8> {
     v.extend_from_slice(&crc_input);
     v.extend_from_slice(&crc32(&crc_input).to_be_bytes());
     v
-}
-
-fn crc32(data: &[u8]) -> u32 {
-    let mut crc = 0xFFFF_FFFFu32;
-    for &b in data {
-        crc ^= u32::from(b);
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
-        }
-    }
-    !crc
 }
 
 #[test]
@@ -299,11 +297,7 @@ fn output_folders_are_transactions() {
     ok(&["weather", i, "-o", o, "--past", "0", "--future", "1", "--overwrite"]);
     assert_eq!(frames(&out), 3);
     // A material refitted at a lower degree keeps no higher coefficients.
-    let steps = dir.join("steps");
-    std::fs::create_dir_all(&steps).unwrap();
-    for (k, f) in patina::samples::rusting_timelapse(16, 16, 6, 1).iter().enumerate() {
-        save_png(f, steps.join(format!("{k}.png")), BitDepth::Eight).unwrap();
-    }
+    let steps = timelapse_steps(&dir, 16);
     let mat = dir.join("mat");
     ok(&["stbrdf", "fit", s(&steps), "-o", s(&mat), "--degree", "3"]);
     ok(&["stbrdf", "fit", s(&steps), "-o", s(&mat), "--degree", "1", "--overwrite"]);
@@ -316,7 +310,7 @@ fn output_folders_are_transactions() {
     refused(&dir, &["weather", i, "-o", s(&dir), "--overwrite"], "input");
     // A failed run leaves nothing: no output folder, no staging folder.
     let bad = dir.join("bad");
-    refused(&dir, &["weather", i, "-o", s(&bad), "--age-map", s(&steps.join("0.png"))], "age map");
+    refused(&dir, &["weather", i, "-o", s(&bad), "--age-map", s(&steps.join("00.png"))], "age map");
     // Staging folders of dead processes are cleaned by the next run; a live one is kept.
     let dead = dir.join(".out.patina-staging-4294967294");
     let live = dir.join(format!(".out.patina-staging-{}", std::process::id()));

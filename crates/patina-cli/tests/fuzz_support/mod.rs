@@ -120,7 +120,8 @@ pub fn mutate(bytes: &[u8], format: &str, rng: &mut Rng) -> Vec<u8> {
     b
 }
 
-fn crc32(data: &[u8]) -> u32 {
+/// The CRC-32 of PNG chunks (ISO 3309, reflected 0xEDB88320).
+pub fn crc32(data: &[u8]) -> u32 {
     let mut crc = 0xFFFF_FFFFu32;
     for &byte in data {
         crc ^= u32::from(byte);
