@@ -38,6 +38,26 @@ pub enum VoteArg {
     Robust,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RelightArg {
+    /// Copy the exemplar's lighting with its patches.
+    Keep,
+    /// Remove the exemplar's smooth illumination (vignette, ramp) and light the output evenly at its mean.
+    Flat,
+    /// Re-light with the exemplar's illumination stretched to the output.
+    Stretch,
+}
+
+impl RelightArg {
+    fn relight(self) -> Relight<'static> {
+        match self {
+            RelightArg::Keep => Relight::Keep,
+            RelightArg::Flat => Relight::Flat,
+            RelightArg::Stretch => Relight::Stretch,
+        }
+    }
+}
+
 /// Parse `N` (square) or `WxH`.
 fn parse_block(s: &str) -> std::result::Result<(usize, usize), String> {
     match s.parse::<usize>() {
@@ -124,9 +144,9 @@ pub struct Args {
     pub transfer_passes: usize,
     #[command(flatten)]
     pub guide: GuideArgs,
-    /// Lighting: keep copies the exemplar's lighting with its patches; flat removes its smooth illumination (vignette, ramp) and lights the output evenly; stretch re-lights with the exemplar's illumination stretched to the output.
-    #[arg(long, default_value = "keep", value_parser = ["keep", "flat", "stretch"])]
-    pub relight: String,
+    /// How the output is lit (lighting-aware synthesis).
+    #[arg(long, value_enum, default_value_t = RelightArg::Keep)]
+    pub relight: RelightArg,
     /// Bits per channel of a PNG output (8 or 16).
     #[arg(long, default_value_t = 8, value_parser = parse_bits)]
     pub bits: u8,
@@ -215,12 +235,7 @@ pub fn run(args: Args) -> Result<()> {
     manifest.timings_ms.insert("load".into(), clock.lap());
 
     let (image, mut params) = with_bar("synth", |report| -> Result<_> {
-        let relight = match args.relight.as_str() {
-            "flat" => Relight::Flat,
-            "stretch" => Relight::Stretch,
-            _ => Relight::Keep,
-        };
-        let mut problem = Synthesis::new(&exemplar).size(size.0, size.1).seed(args.seed).progress(report).relight(relight);
+        let mut problem = Synthesis::new(&exemplar).size(size.0, size.1).seed(args.seed).progress(report).relight(args.relight.relight());
         if let Some((s, t)) = &guides {
             problem = problem.guides(s, t, args.guide.guide_weight);
         }
@@ -250,7 +265,7 @@ pub fn run(args: Args) -> Result<()> {
     params["size"] = json!([size.0, size.1]);
     params["guide_weight"] = json!(args.guide.guide_weight);
     params["bits"] = json!(args.bits);
-    params["relight"] = json!(args.relight);
+    params["relight"] = json!(args.relight.relight().name());
     manifest.params = params;
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.outputs = vec![args.out.clone()];
