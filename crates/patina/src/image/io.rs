@@ -44,10 +44,19 @@ pub struct Loaded {
     pub nonfinite: usize,
 }
 
+/// The file formats patina reads, recognised from their content.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputFormat {
+    Png,
+    Jpeg,
+    Gif,
+    Exr,
+}
+
 /// What a file's header declares, read before any pixel is decoded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Header {
-    pub format: &'static str,
+    pub format: InputFormat,
     pub width: usize,
     pub height: usize,
     pub channels: usize,
@@ -102,10 +111,10 @@ pub fn decode_with(bytes: &[u8], path: &Path, options: LoadOptions) -> Result<Lo
         header.decode_bytes(),
     )?;
     let mut image = match header.format {
-        "EXR" => decode_exr(bytes),
-        "PNG" => decode_png(bytes),
-        "JPEG" => decode_jpeg(bytes),
-        _ => decode_other(bytes),
+        InputFormat::Exr => decode_exr(bytes),
+        InputFormat::Png => decode_png(bytes),
+        InputFormat::Jpeg => decode_jpeg(bytes),
+        InputFormat::Gif => decode_gif(bytes),
     }
     .map_err(|e| bad(e.to_string()))?;
     if image.width() * image.height() * image.channels() > header.width * header.height * header.channels.max(4) {
@@ -133,7 +142,7 @@ pub fn read_header(bytes: &[u8], path: &Path) -> Result<Header> {
         let bytes_per_sample =
             h.channels.list.iter().map(|c| if c.sample_type == exr::meta::attribute::SampleType::F16 { 2 } else { 4 }).max().unwrap_or(4);
         return Ok(Header {
-            format: "EXR",
+            format: InputFormat::Exr,
             width: h.layer_size.width(),
             height: h.layer_size.height(),
             channels: h.channels.list.len().max(1),
@@ -142,9 +151,9 @@ pub fn read_header(bytes: &[u8], path: &Path) -> Result<Header> {
     }
     let reader = image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| bad(e.to_string()))?;
     let format = match reader.format() {
-        Some(image::ImageFormat::Png) => "PNG",
-        Some(image::ImageFormat::Jpeg) => "JPEG",
-        Some(image::ImageFormat::Gif) => "GIF",
+        Some(image::ImageFormat::Png) => InputFormat::Png,
+        Some(image::ImageFormat::Jpeg) => InputFormat::Jpeg,
+        Some(image::ImageFormat::Gif) => InputFormat::Gif,
         _ => return Err(bad("unknown file format; expected PNG, JPEG, GIF or OpenEXR".into())),
     };
     use image::ImageDecoder;
@@ -212,8 +221,8 @@ fn decode_jpeg(bytes: &[u8]) -> DecodeResult {
     Ok(from_dynamic(dynamic)?)
 }
 
-/// Other still formats (GIF: its first frame).
-fn decode_other(bytes: &[u8]) -> DecodeResult {
+/// A GIF's first frame.
+fn decode_gif(bytes: &[u8]) -> DecodeResult {
     let mut reader = image::ImageReader::new(Cursor::new(bytes)).with_guessed_format()?;
     reader.no_limits();
     Ok(from_dynamic(reader.decode()?)?)
