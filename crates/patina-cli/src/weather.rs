@@ -34,9 +34,12 @@ pub struct MethodArgs {
     /// Weight of the per-pixel detail term of the age map, which finds thin cracks (0 = paper's grid age only).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub detail: f32,
-    /// Share of the most-aged pixels the intact texture never copies from (paper: 0.2).
-    #[arg(long, default_value_t = 0.2, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 0.95))]
-    pub discard: f32,
+    /// Treat a fixed share of the most-aged pixels as weathered (the paper: 0.2) [default: automatic, Otsu's cut of the age map].
+    #[arg(long, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 0.94))]
+    pub discard: Option<f32>,
+    /// Largest share of the surface the automatic cut may call weathered (raise it for a photo that is mostly rust).
+    #[arg(long, default_value_t = 0.6, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 0.94))]
+    pub weathered_max: f32,
     /// Do not look for a tile grid: treat the texture as stochastic.
     #[arg(long)]
     pub no_tiles: bool,
@@ -59,6 +62,7 @@ impl MethodArgs {
         p.age.colour = !self.luminance_only;
         p.age.detail = self.detail;
         p.intact.discard = self.discard;
+        p.intact.weathered_max = self.weathered_max;
         p.intact.detect_tiles = !self.no_tiles;
         p.layers = self.layers;
         p
@@ -189,6 +193,10 @@ pub fn run(args: Args) -> Result<()> {
         p["age"]["k_used"] = json!(k);
     }
     p["tiles"] = json!(result.lattice);
+    if let Some((cut, fraction)) = result.weathered {
+        p["intact"]["age_cut_used"] = json!(cut);
+        p["intact"]["weathered_fraction"] = json!(fraction);
+    }
     p["layers_used"] = json!(result.layers.as_ref().map(|l| l.count));
     manifest.params = p;
     manifest.metrics.insert("weathered_area".into(), json!(weathered_areas(&result.frames, &result.intact)?));
@@ -262,6 +270,8 @@ pub fn run_intact(args: SingleArgs) -> Result<()> {
     let mut p = serde_json::to_value(&params.intact).map_err(|e| Error::Internal(e.to_string()))?;
     p["age"] = serde_json::to_value(&params.age).map_err(|e| Error::Internal(e.to_string()))?;
     p["tiles"] = json!(result.lattice);
+    p["age_cut_used"] = json!(result.cut);
+    p["weathered_fraction"] = json!(result.weathered_fraction);
     manifest.params = p;
     manifest.write(&manifest_file)
 }

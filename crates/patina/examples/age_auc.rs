@@ -1,34 +1,62 @@
-//! Age-map accuracy table: ROC AUC of the age map against the injected
-//! weathering mask, per base texture (tiles, gravel, cobbles, blotches) and
-//! kind (rust, stain, cracks), for a few parameter choices.
+//! Age map and intact texture against injected ground truth: per base
+//! texture (stochastic gravel, tiles, planks) and kind of weathering (a
+//! crack network over the whole surface, 37% peeling with lips, 10% rust),
+//! the age map's ROC AUC against the mask and the intact texture's residue
+//! ([`patina::metrics::weathering_residue`]), with the time of both.
 //!
-//!     cargo run --release -p patina --example age_auc -- 160   # image side
-use patina::metrics::roc_auc;
+//!     cargo run --release -p patina --example age_auc -- 256   # image side
+use patina::metrics::{roc_auc, weathering_residue};
 use patina::samples::{self, Weathering};
-use patina::weather::{age_map, AgeParams};
+use patina::weather::{age_map, intact, AgeParams, IntactParams};
+use std::time::Instant;
+
 fn main() {
-    let configs: Vec<(&str, AgeParams)> = vec![
-        ("default", AgeParams::default()),
-        ("k 0.1", AgeParams { k_fraction: Some(0.1), ..Default::default() }),
-        ("k 0.2", AgeParams { k_fraction: Some(0.2), ..Default::default() }),
-        ("k10", AgeParams { k_fraction: None, ..Default::default() }),
-    ];
-    let size: usize = std::env::args().nth(1).map_or(256, |s| s.parse().unwrap());
-    let bases = ["tiles", "gravel", "cobbles", "blotches"];
-    println!("{:14} {}", "AUC", bases.map(|b| format!("{:>17}", format!("{b}: R/S/C"))).join(" "));
-    for (name, p) in &configs {
-        let mut line = format!("{name:14}");
-        for base in ["tiles", "gravel", "cobbles", "blotches"] {
-            for kind in [Weathering::Rust, Weathering::Stain, Weathering::Cracks] {
-                let clean = samples::by_name(base, size, size, 3).unwrap();
-                let (img, mask) = samples::weather(&clean, kind, 0.1, 11);
-                let t = std::time::Instant::now();
-                let a = age_map(&img, p).unwrap();
-                let auc = roc_auc(a.map.data(), mask.bits());
-                line += &format!(" {:>5.2}", auc);
-                let _ = t;
+    let size: usize = std::env::args().nth(1).map_or(256, |s| s.parse().expect("image side"));
+    let only: Option<String> = std::env::args().nth(2);
+    println!("{:8} {:13} {:>5} {:>6} {:>8} {:>7} {:>7}", "base", "weathering", "area", "AUC", "residue", "age s", "intact s");
+    println!("(then: the fraction judged weathered, and whether the intact texture used a tile grid)");
+    for base in ["stucco", "gravel", "tiles", "planks"] {
+        for (kind, area, name) in [
+            (Weathering::CrackNetwork, 0.0, "crack network"),
+            (Weathering::Peel, 0.32, "peel 37%"),
+            (Weathering::Rust, 0.1, "rust 10%"),
+            (Weathering::Cracks, 0.1, "cracks 10%"),
+        ] {
+            if only.as_deref().is_some_and(|o| !format!("{base} {name}").contains(o)) {
+                continue;
+            }
+            let clean = samples::by_name(base, size, size, 3).unwrap();
+            let (img, mask) = samples::weather(&clean, kind, area, 11);
+            let t = Instant::now();
+            let mut ap = AgeParams::default();
+            if let Ok(k) = std::env::var("AGE_K") {
+                ap.k_fraction = Some(k.parse().unwrap());
+            }
+            if let Ok(d) = std::env::var("AGE_DETAIL") {
+                ap.detail = d.parse().unwrap();
+            }
+            if std::env::var("AGE_KNN").is_ok() {
+                ap.prevalence = patina::weather::age::Prevalence::KNearest;
+            }
+            let a = age_map(&img, &ap).unwrap();
+            let t_age = t.elapsed().as_secs_f32();
+            let auc = roc_auc(a.map.data(), mask.bits());
+            if std::env::var("AGE_DEBUG").is_ok() {
+                eprintln!("{base} {name}: {:?}", a.periodicity.map(|p| p.vectors()));
+            }
+            let t = Instant::now();
+            let result = intact(&img, &a.map, None, &IntactParams::default(), 5).unwrap();
+            let t_intact = t.elapsed().as_secs_f32();
+            let residue = weathering_residue(&result.image, &clean, &img, &mask, 5, 1).unwrap();
+            let share = mask.count() as f32 / (size * size) as f32;
+            let (judged, grid) = (result.weathered_fraction, result.lattice.is_some());
+            println!("{base:8} {name:13} {share:5.2} {auc:6.3} {residue:8.3} {t_age:7.2} {t_intact:7.2} {judged:6.2} {grid}");
+            if let Ok(dir) = std::env::var("AGE_AUC_OUT") {
+                let stem = format!("{dir}/{base}_{}", name.split(' ').next().unwrap());
+                patina::image::io::save(&img, format!("{stem}_input.png"), patina::image::io::BitDepth::Eight).unwrap();
+                patina::image::io::save(&a.map, format!("{stem}_age.png"), patina::image::io::BitDepth::Eight).unwrap();
+                patina::image::io::save(&result.image, format!("{stem}_intact.png"), patina::image::io::BitDepth::Eight).unwrap();
             }
         }
-        println!("{line}");
     }
 }

@@ -157,6 +157,49 @@ pub fn blotches(width: usize, height: usize, seed: u64) -> Image {
     })
 }
 
+/// Stucco: warm grey plaster with a fractal relief lit from the top left
+/// and fine sand speckle. Stochastic and fine-grained: the surface thin
+/// cracks and peeling paint weather in real photos.
+pub fn stucco(width: usize, height: usize, seed: u64) -> Image {
+    let relief = |x: f32, y: f32| fractal_noise(seed ^ 0x57, x, y, 10.0, 4);
+    Image::from_fn(width, height, 3, |x, y, p| {
+        let (fx, fy) = (x as f32, y as f32);
+        let shade = 4.0 * (relief(fx, fy) - relief(fx + 1.0, fy + 1.0));
+        let sand = fractal_noise(seed ^ 0x58, fx, fy, 1.5, 2) - 0.5;
+        let tone = fractal_noise(seed ^ 0x59, fx, fy, 60.0, 2) - 0.5;
+        let v = 0.66 + 0.5 * shade + 0.12 * sand + 0.08 * tone;
+        for (c, tint) in [1.0, 0.96, 0.88].iter().enumerate() {
+            p[c] = (v * tint).clamp(0.0, 1.0);
+        }
+    })
+}
+
+/// Period, in pixels, of [`planks`] across the boards.
+pub const PLANK_PERIOD: usize = 26;
+
+/// Wooden planks: horizontal boards [`PLANK_PERIOD`] px apart with a
+/// 2 px dark gap, each board its own tone, long grain streaks and board
+/// ends staggered from row to row. Regular across the boards, stochastic
+/// along them: the grooves repeat and must not count as weathering.
+pub fn planks(width: usize, height: usize, seed: u64) -> Image {
+    let (period, length) = (PLANK_PERIOD, 150usize);
+    Image::from_fn(width, height, 3, |x, y, p| {
+        let row = y / period;
+        let shift = (lattice(seed ^ 0x91, row as i64, 0) * length as f32) as usize;
+        let board = (x + shift) / length;
+        let along = (x + shift) % length;
+        let gap = y % period < 2 || along < 2;
+        let tone = lattice(seed ^ 0x92, row as i64, board as i64);
+        let grain = fractal_noise(seed ^ 0x93, x as f32 * 0.08, y as f32 * 1.0, 3.0, 3);
+        let fine = fractal_noise(seed ^ 0x94, x as f32 * 0.5, y as f32 * 2.0, 2.0, 2);
+        let base = [0.55 + 0.15 * tone, 0.38 + 0.1 * tone, 0.22 + 0.06 * tone];
+        let streak = 0.75 + 0.4 * (grain - 0.5) + 0.12 * (fine - 0.5);
+        for c in 0..3 {
+            p[c] = if gap { base[c] * 0.3 } else { (base[c] * streak).clamp(0.0, 1.0) };
+        }
+    })
+}
+
 /// Period, in pixels, of [`tiles`] in both directions.
 pub const TILE_PERIOD: usize = 32;
 
@@ -193,6 +236,14 @@ pub enum Weathering {
     Stain,
     /// Thin dark cracks that wander and branch.
     Cracks,
+    /// A network of thin dark cracks over the whole surface (crazed paint,
+    /// dried mud): wobbly Voronoi cell borders about 40 px apart, so every
+    /// region of the image holds some. `area` is ignored.
+    CrackNetwork,
+    /// Peeling paint: over `area`, the paint is gone and a pale plaster
+    /// with its own grain shows, edged by a lifted paint lip (a bright rim
+    /// outside the edge and a dark shadow inside it).
+    Peel,
 }
 
 /// `base` with weathering of `kind` over about `area` (fraction, e.g. 0.1)
@@ -265,6 +316,50 @@ pub fn weather(base: &Image, kind: Weathering, area: f32, seed: u64) -> (Image, 
                 }
             }
         }
+        Weathering::CrackNetwork => {
+            let cell = 40.0f32;
+            for y in 0..h {
+                for x in 0..w {
+                    // Warp the cell coordinates so the borders wobble.
+                    let wx = x as f32 + 6.0 * (fractal_noise(seed ^ 0xc1, x as f32, y as f32, 18.0, 2) - 0.5);
+                    let wy = y as f32 + 6.0 * (fractal_noise(seed ^ 0xc2, x as f32, y as f32, 18.0, 2) - 0.5);
+                    let v = voronoi(wx / cell, wy / cell, (seed ^ 0xc3, seed ^ 0xc4), 0.2);
+                    let width = 0.9 + 0.9 * fractal_noise(seed ^ 0xc5, x as f32, y as f32, 12.0, 1);
+                    let a = (1.0 - (v.d2 - v.d1) * cell / width).clamp(0.0, 1.0);
+                    if a <= 0.0 {
+                        continue;
+                    }
+                    mask.set(x, y, a >= 0.3);
+                    let p = out.pixel_mut(x, y);
+                    p.iter_mut().take(3).for_each(|c| *c = *c * (1.0 - 0.8 * a) + 0.03 * a);
+                }
+            }
+        }
+        Weathering::Peel => {
+            let scale = (w.min(h) as f32 / 4.0).max(8.0);
+            let field: Vec<f32> = (0..w * h).map(|i| fractal_noise(seed ^ 0x9e, (i % w) as f32, (i / w) as f32, scale, 5)).collect();
+            let mut sorted = field.clone();
+            sorted.sort_by(f32::total_cmp);
+            let thr = sorted[((1.0 - area.clamp(0.0, 1.0)) * (w * h - 1) as f32) as usize];
+            let peel = Mask::from_fn(w, h, |x, y| field[y * w + x] > thr);
+            let (lip, inner) = (peel.dilate(2), peel.erode(2));
+            for y in 0..h {
+                for x in 0..w {
+                    let p = out.pixel_mut(x, y);
+                    if peel.get(x, y) {
+                        let grain = fractal_noise(seed ^ 0x9f, x as f32, y as f32, 4.0, 3) - 0.5;
+                        // A dark shadow under the lip along the inside of the edge.
+                        let shadow = if inner.get(x, y) { 1.0 } else { 0.6 };
+                        let plaster = [0.8 + 0.12 * grain, 0.77 + 0.12 * grain, 0.7 + 0.1 * grain];
+                        p.iter_mut().zip(plaster).for_each(|(c, v)| *c = v * shadow);
+                    } else if lip.get(x, y) {
+                        // The lifted lip: lighter paint, catching the light.
+                        p.iter_mut().take(3).for_each(|c| *c = (*c * 0.6 + 0.45).min(1.0));
+                    }
+                }
+            }
+            mask = lip;
+        }
     }
     (out, mask)
 }
@@ -324,7 +419,7 @@ pub fn rusting_timelapse(width: usize, height: usize, frames: usize, seed: u64) 
 }
 
 /// Named samples, for the CLI.
-pub const NAMES: [&str; 5] = ["bricks", "cobbles", "blotches", "tiles", "gravel"];
+pub const NAMES: [&str; 7] = ["bricks", "cobbles", "blotches", "tiles", "gravel", "planks", "stucco"];
 
 /// A sample by name.
 pub fn by_name(name: &str, width: usize, height: usize, seed: u64) -> Option<Image> {
@@ -334,6 +429,8 @@ pub fn by_name(name: &str, width: usize, height: usize, seed: u64) -> Option<Ima
         "blotches" => Some(blotches(width, height, seed)),
         "tiles" => Some(tiles(width, height, seed)),
         "gravel" => Some(gravel(width, height, seed)),
+        "planks" => Some(planks(width, height, seed)),
+        "stucco" => Some(stucco(width, height, seed)),
         _ => None,
     }
 }

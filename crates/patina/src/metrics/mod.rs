@@ -253,3 +253,42 @@ mod tests {
         assert!(own > 0.0 && own < 0.2, "{own}");
     }
 }
+
+/// How much of an injected weathering a de-weathered image keeps (0 = none,
+/// 1 = all of it): over the weathered pixels `mask`, the excess of the
+/// distance from each pixel's patch to its nearest patch of the `clean`
+/// texture over that distance elsewhere, relative to the same excess for
+/// the `weathered` input itself. Nearest patches rather than pixel
+/// differences, so a stochastic texture rebuilt with new (but clean)
+/// material does not count as residue.
+pub fn weathering_residue(result: &Image, clean: &Image, weathered: &Image, mask: &Mask, patch: usize, seed: u64) -> Result<f32> {
+    if result.size() != mask.size() || weathered.size() != mask.size() {
+        return Err(Error::invalid("the result, the weathered input and the mask must have one size"));
+    }
+    let excess = |img: &Image| -> Result<f64> {
+        let (nnf, inside) = nearest(img, clean, patch, None, seed)?;
+        let (mut on, mut n_on, mut off, mut n_off) = (0f64, 0usize, 0f64, 0usize);
+        for y in 0..img.height() {
+            for x in 0..img.width() {
+                if !inside.get(x, y) {
+                    continue;
+                }
+                let d = (nnf.get(x, y).cost.max(0.0) as f64).sqrt();
+                if mask.get(x, y) {
+                    (on, n_on) = (on + d, n_on + 1);
+                } else {
+                    (off, n_off) = (off + d, n_off + 1);
+                }
+            }
+        }
+        if n_on == 0 || n_off == 0 {
+            return Err(Error::invalid("the weathering mask must hold some but not all pixels"));
+        }
+        Ok(on / n_on as f64 - off / n_off as f64)
+    };
+    let base = excess(weathered)?;
+    if base <= 0.0 {
+        return Err(Error::invalid("the weathered input does not differ from the clean texture where the mask says"));
+    }
+    Ok((excess(result)? / base).max(0.0) as f32)
+}

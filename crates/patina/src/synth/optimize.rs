@@ -242,6 +242,7 @@ impl Synthesis<'_> {
         let sguide_pyr = self.source_guide.map(|g| gaussian_pyramid(g, levels));
         let tguide_pyr = self.target_guide.map(|g| gaussian_pyramid(g, levels));
         let allowed_pyr = self.source_mask.map(|m| pyramid(m.clone(), levels, |m| mask_down(m, false)));
+        let loose_pyr = self.source_mask.map(|m| pyramid(m.clone(), levels, |m| mask_down(m, true)));
         let fill_pyr = self.fill.map(|(img, _)| gaussian_pyramid(img, levels));
         let start_pyr = self.start.map(|img| gaussian_pyramid(img, levels));
         let hole_pyr = self.fill.map(|(_, hole)| pyramid(hole.clone(), levels, |m| mask_down(m, true)));
@@ -267,7 +268,16 @@ impl Synthesis<'_> {
             };
             let (source, search_metric) = pad_for_search(&source, &metric);
             let pad = Image::new(tw, th, search_padding(metric.channels()).max(1));
-            let domain = SourceDomain::new(source.width(), source.height(), r, allowed_pyr.as_ref().map(|p| &p[level]))?;
+            // A scattered mask can leave no whole patch once shrunk: coarse
+            // levels then use the looser "any allowed" mask, or none (the
+            // finest level always holds the mask exactly).
+            let domain = SourceDomain::new(source.width(), source.height(), r, allowed_pyr.as_ref().map(|p| &p[level])).or_else(|e| {
+                if level == 0 {
+                    return Err(e);
+                }
+                SourceDomain::new(source.width(), source.height(), r, loose_pyr.as_ref().map(|p| &p[level]))
+                    .or_else(|_| SourceDomain::new(source.width(), source.height(), r, None))
+            })?;
             let level_seed = rng::derive(self.seed, &[level as u64]);
             let mut field = match nnf.take() {
                 Some(coarse) => upsample_nnf(&coarse, tw, th, &domain, level_seed),

@@ -29,10 +29,14 @@
 //!   inside an intact cell is found too.
 
 use super::features::Features;
+use super::tiles::{self, Periodicity};
+use crate::image::summed::SummedArea;
 use crate::error::{Error, Result};
 use crate::image::filter::gaussian_blur;
+use crate::image::resample::{resize, Filter};
 use crate::image::{Image, Mask};
 use crate::synth::correlate::SpectralSource;
+use crate::rng::Rng;
 use crate::synth::nnf::{random_nnf, SourceDomain};
 use crate::synth::{PatchMatch, PatchMetric};
 use rayon::prelude::*;
@@ -67,11 +71,27 @@ pub struct AgeParams {
     pub detail: f32,
     /// Patch side of the detail term (odd).
     pub detail_patch: usize,
+    /// How a cell's distances to the other cells become its age.
+    pub prevalence: Prevalence,
+    /// Look for a period (tiles, boards, grooves) and, when there is one,
+    /// age by departure from the median repeat instead of by rarity, so
+    /// that regular structure never ages.
+    pub regular: bool,
+}
+
+/// How a grid cell's minimum distances to the other cells become its age.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Prevalence {
+    /// The share of the other cells holding no match (see [`coverage_ages`]).
+    Coverage,
+    /// The paper's mean of the K smallest distances.
+    KNearest,
 }
 
 impl Default for AgeParams {
     fn default() -> Self {
-        AgeParams { grid: 20, min_patch: 8, k: 10, k_fraction: Some(0.4), colour: true, smoothing: 0.5, detail: 1.0, detail_patch: 5 }
+        AgeParams { grid: 20, min_patch: 8, k: 10, k_fraction: Some(0.4), colour: true, smoothing: 0.5, detail: 1.0, detail_patch: 5, prevalence: Prevalence::Coverage, regular: true }
     }
 }
 
@@ -88,6 +108,8 @@ pub struct AgeMap {
     pub k: usize,
     /// The raw age of each grid cell, row-major N x N.
     pub cell_ages: Vec<f32>,
+    /// How the texture repeats, when it does (and `regular` was on).
+    pub periodicity: Option<Periodicity>,
 }
 
 impl AgeParams {
@@ -130,18 +152,82 @@ pub fn age_map(img: &Image, params: &AgeParams) -> Result<AgeMap> {
     let (n, (pw, ph)) = params.resolve(w, h)?;
     let features = Features::new(img, params.colour)?;
     let k = params.k_for(n * n);
+    let periodicity = if params.regular { tiles::periods(img) } else { None };
     let (i_max, g_max) = distance_scales(&features, n, (pw, ph));
-    let cell_ages = grid_ages(&features, n, (pw, ph), k, (i_max, g_max));
-    let mut map = interpolate(&cell_ages, n, (pw, ph), w, h);
-    map = gaussian_blur(&map, (params.smoothing * pw.max(ph) as f32).max(0.5));
-    normalise(&mut map);
-    if params.detail > 0.0 {
-        let detail = detail_term(&features, &map, params.detail_patch)?;
+    let minima = cell_minima(&features, n, (pw, ph), (i_max, g_max));
+    let cell_ages = match params.prevalence {
+        Prevalence::Coverage => coverage_ages(&minima, n, pw.min(ph)),
+        Prevalence::KNearest => k_nearest_ages(&minima, k),
+    };
+    let mut map = match &periodicity {
+        // A tiled texture: what departs from its own median tile is
+        // weathered; the grout and inserts that repeat are not.
+        Some(p @ Periodicity::Grid(_)) => periodic_deviation(&features, p, params.detail_patch),
+        _ => {
+            let mut m = interpolate(&cell_ages, n, (pw, ph), w, h);
+            m = gaussian_blur(&m, (params.smoothing * pw.max(ph) as f32).max(0.5));
+            normalise(&mut m);
+            m
+        }
+    };
+    // A tiled texture's deviation map is already per pixel; the detail
+    // term serves stochastic textures and stripes, where the grooves that
+    // repeat at the period are not rare detail.
+    if params.detail > 0.0 && !matches!(periodicity, Some(Periodicity::Grid(_))) {
+        let mut detail = detail_term(&features, &map, params.detail_patch)?;
+        if let Some(Periodicity::Stripes(v)) = periodicity {
+            let regular = regularity(&features, v, params.detail_patch);
+            detail.data_mut().iter_mut().zip(regular.data()).for_each(|(d, r)| *d *= 1.0 - r);
+        }
         for (a, d) in map.data_mut().iter_mut().zip(detail.data()) {
             *a = a.max(params.detail * d);
         }
     }
-    Ok(AgeMap { map, grid: n, patch: (pw, ph), k, cell_ages })
+    Ok(AgeMap { map, grid: n, patch: (pw, ph), k, cell_ages, periodicity })
+}
+
+/// Rescale `values` so that `lo_q` of `reference` maps to 0 and the
+/// `hi_q` quantile of `values` to 1, clamped: robust to a few extreme
+/// pixels at the top and to the spread of ordinary material at the bottom.
+fn rescale(values: &mut [f32], reference: &[f32], lo_q: f32, hi_q: f32) {
+    let quantile = |v: &[f32], q: f32| -> f32 {
+        let mut s = v.to_vec();
+        let i = ((s.len().max(1) - 1) as f32 * q) as usize;
+        if s.is_empty() {
+            return 0.0;
+        }
+        *s.select_nth_unstable_by(i, f32::total_cmp).1
+    };
+    let lo = quantile(reference, lo_q);
+    let hi = quantile(values, hi_q);
+    values.iter_mut().for_each(|v| *v = if hi > lo { ((*v - lo) / (hi - lo)).clamp(0.0, 1.0) } else { 0.0 });
+}
+
+/// Top quantile that maps to age 1 (a few extreme pixels do not set the scale).
+const TOP_QUANTILE: f32 = 0.995;
+
+/// Per pixel, the distance from its `patch` x `patch` neighbourhood to the
+/// same neighbourhood of the texture's median repeat
+/// ([`tiles::median_translates`] over the detected periods). Rescaled from
+/// the median (ordinary variation between repeats) to the top quantile.
+fn periodic_deviation(f: &Features, periodicity: &Periodicity, patch: usize) -> Image {
+    let stacked = f.stacked();
+    let (w, h) = stacked.size();
+    let median = tiles::median_translates(&stacked, &periodicity.vectors(), None);
+    let weights = f.weights(1.0, 4.0);
+    let per_pixel = Image::from_fn(w, h, 1, |x, y, p| {
+        p[0] = stacked.pixel(x, y).iter().zip(median.pixel(x, y)).zip(&weights).map(|((a, b), wt)| wt * (a - b) * (a - b)).sum();
+    });
+    let r = patch / 2;
+    let sums = SummedArea::new(w, h, |x, y| per_pixel.at(x, y, 0) as f64);
+    let mut d = Image::from_fn(w, h, 1, |x, y, p| {
+        let (x0, y0) = (x.saturating_sub(r), y.saturating_sub(r));
+        let (x1, y1) = ((x + r + 1).min(w), (y + r + 1).min(h));
+        p[0] = (sums.sum(x0, y0, x1 - x0, y1 - y0) / ((x1 - x0) * (y1 - y0)) as f64).sqrt() as f32;
+    });
+    let reference = d.data().to_vec();
+    rescale(d.data_mut(), &reference, 0.5, TOP_QUANTILE);
+    d
 }
 
 /// The source patch of cell (i, j) as a template of `channels` values per pixel.
@@ -168,9 +254,9 @@ fn distance_scales(f: &Features, n: usize, patch: (usize, usize)) -> (f32, f32) 
     (max_of(&f.appearance), max_of(&f.direction))
 }
 
-/// The raw age of every grid cell: mean of the K smallest per-cell minima
-/// of D, leaving out the cell itself.
-fn grid_ages(f: &Features, n: usize, (pw, ph): (usize, usize), k: usize, (i_max, g_max): (f32, f32)) -> Vec<f32> {
+/// Per source cell, the minimum of D over the placements centred in each
+/// grid cell, row-major (its own cell infinite).
+fn cell_minima(f: &Features, n: usize, (pw, ph): (usize, usize), (i_max, g_max): (f32, f32)) -> Vec<Vec<f32>> {
     let stacked = f.stacked();
     let spectral = SpectralSource::new(&stacked, &f.weights(i_max, g_max));
     let (vw, vh) = (stacked.width() - pw + 1, stacked.height() - ph + 1);
@@ -194,9 +280,77 @@ fn grid_ages(f: &Features, n: usize, (pw, ph): (usize, usize), k: usize, (i_max,
                     }
                 }
             }
-            best.swap_remove(c);
-            best.sort_by(f32::total_cmp);
-            best[..k].iter().sum::<f32>() / k as f32
+            best[c] = f32::INFINITY;
+            best
+        })
+        .collect()
+}
+
+/// The paper's age of every cell: the mean of its K smallest minima.
+fn k_nearest_ages(minima: &[Vec<f32>], k: usize) -> Vec<f32> {
+    minima
+        .iter()
+        .map(|m| {
+            let mut m = m.clone();
+            m.sort_by(f32::total_cmp);
+            m[..k].iter().sum::<f32>() / k as f32
+        })
+        .collect()
+}
+
+/// Closest matches that set a cell's own match scale in [`coverage_ages`].
+const OWN_MATCHES: usize = 3;
+
+/// Smallest side, in pixels, of the regions [`coverage_ages`] counts: a
+/// few tile periods, so that a periodic texture's exact repeats fall in
+/// every region.
+pub const REGION_SIDE: usize = 48;
+
+/// The age of every cell as the share of the image's regions (blocks of
+/// cells at least [`REGION_SIDE`] px wide) that hold no match for it. A
+/// match is a minimum below the cell's own scale (twice the mean of its
+/// [`OWN_MATCHES`] best minima, plus a floor of half the median such
+/// scale), with a soft step. Unlike the mean of the K smallest distances,
+/// this counts regions rather than summing distances, so smooth weathering
+/// (bare plaster, whose distances are all small) is not mistaken for
+/// intact material when the intact material is busier, and a weathering
+/// over 40% of the surface still covers fewer regions than the material
+/// around it.
+fn coverage_ages(minima: &[Vec<f32>], n: usize, cell: usize) -> Vec<f32> {
+    let b = REGION_SIDE.div_ceil(cell.max(1)).clamp(1, n / 3);
+    let r = n.div_ceil(b);
+    let regional: Vec<Vec<f32>> = minima
+        .iter()
+        .enumerate()
+        .map(|(c, m)| {
+            let mut out = vec![f32::INFINITY; r * r];
+            for (k, &v) in m.iter().enumerate() {
+                let slot = &mut out[(k / n / b) * r + (k % n) / b];
+                *slot = slot.min(v);
+            }
+            // Leave out the region of the cell itself.
+            out.swap_remove((c / n / b) * r + (c % n) / b);
+            out
+        })
+        .collect();
+    let own: Vec<f32> = minima
+        .iter()
+        .map(|m| {
+            let mut m = m.clone();
+            m.sort_by(f32::total_cmp);
+            m[..OWN_MATCHES].iter().sum::<f32>() / OWN_MATCHES as f32
+        })
+        .collect();
+    let mut sorted = own.clone();
+    sorted.sort_by(f32::total_cmp);
+    let floor = 0.5 * sorted[sorted.len() / 2];
+    regional
+        .iter()
+        .zip(&own)
+        .map(|(m, &o)| {
+            let theta = (2.0 * o + floor).max(1e-12);
+            let covered: f32 = m.iter().map(|&v| 1.0 / (1.0 + (v / theta).powi(4))).sum();
+            1.0 - covered / m.len() as f32
         })
         .collect()
 }
@@ -225,35 +379,250 @@ pub(crate) fn normalise(img: &mut Image) {
     img.data_mut().iter_mut().for_each(|v| *v = if span > 1e-12 { (*v - lo) / span } else { 0.0 });
 }
 
-/// Per pixel, how much rarer its patch is than intact patches: the distance
-/// d from its patch to the nearest patch (not overlapping it) among the
-/// pixels whose grid age is below the median, mapped to [0, 1] from the
-/// [`DETAIL_QUANTILE`] of d over those intact pixels (0: as common as
-/// intact material gets) to the largest d (1). On stochastic textures
-/// (gravel) every patch is a little unique, and only what stands out of
-/// that spread counts.
-fn detail_term(f: &Features, coarse: &Image, patch: usize) -> Result<Image> {
-    let appearance = &f.appearance;
+/// Per pixel, in [0, 1], how well its structure recurs one and two periods
+/// `v` away on either side: the median over those four translates of the
+/// distance between gradient-direction patches (edges, not tone: boards
+/// differ in tone while their grooves line up), mapped so that the
+/// image's lower quartile of that distance is 1 (fully regular) and its
+/// median 0.
+fn regularity(f: &Features, v: [f32; 2], patch: usize) -> Image {
+    let dir = &f.direction;
+    let (w, h) = dir.size();
+    let r = (patch / 2) as i64;
+    let shifts: Vec<(i64, i64)> = [-2.0f32, -1.0, 1.0, 2.0].iter().map(|k| ((k * v[0]).round() as i64, (k * v[1]).round() as i64)).collect();
+    let at = |x: i64, y: i64| dir.pixel(x.clamp(0, w as i64 - 1) as usize, y.clamp(0, h as i64 - 1) as usize);
+    let mut dist = vec![0f32; w * h];
+    dist.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let mut ds = Vec::with_capacity(4);
+        for (x, out) in row.iter_mut().enumerate() {
+            ds.clear();
+            for &(dx, dy) in &shifts {
+                let (tx, ty) = (x as i64 + dx, y as i64 + dy);
+                if tx < 0 || ty < 0 || tx >= w as i64 || ty >= h as i64 {
+                    continue;
+                }
+                let mut sum = 0f32;
+                for v in -r..=r {
+                    for u in -r..=r {
+                        let (a, b) = (at(x as i64 + u, y as i64 + v), at(tx + u, ty + v));
+                        sum += (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2);
+                    }
+                }
+                ds.push(sum);
+            }
+            ds.sort_by(f32::total_cmp);
+            *out = if ds.is_empty() { f32::INFINITY } else { ds[(ds.len() - 1) / 2] };
+        }
+    });
+    let mut sorted: Vec<f32> = dist.iter().copied().filter(|d| d.is_finite()).collect();
+    sorted.sort_by(f32::total_cmp);
+    let (q1, q2) = if sorted.is_empty() { (0.0, 0.0) } else { (sorted[sorted.len() / 4], sorted[sorted.len() / 2]) };
+    let regular = dist.iter().map(|&d| if q2 > q1 { ((q2 - d) / (q2 - q1)).clamp(0.0, 1.0) } else { 0.0 }).collect();
+    Image::from_data(w, h, 1, regular).expect("sizes match")
+}
+
+/// Per pixel, how common its colour is: the count of the image's pixels in
+/// its bin of a 16^3 histogram of the appearance features (smoothed over
+/// the neighbouring bins).
+fn colour_density(appearance: &Image) -> Vec<f32> {
+    const BINS: usize = 16;
+    let c = appearance.channels().min(3);
+    let mut lo = [f32::MAX; 3];
+    let mut hi = [f32::MIN; 3];
+    for p in appearance.data().chunks_exact(appearance.channels()) {
+        for k in 0..c {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let bin = |p: &[f32]| -> [usize; 3] {
+        let mut b = [0usize; 3];
+        for k in 0..c {
+            let t = if hi[k] > lo[k] { (p[k] - lo[k]) / (hi[k] - lo[k]) } else { 0.0 };
+            b[k] = ((t * BINS as f32) as usize).min(BINS - 1);
+        }
+        b
+    };
+    let idx = |b: [usize; 3]| (b[0] * BINS + b[1]) * BINS + b[2];
+    let mut hist = vec![0f32; BINS * BINS * BINS];
+    for p in appearance.data().chunks_exact(appearance.channels()) {
+        hist[idx(bin(p))] += 1.0;
+    }
+    // A [1 2 1] smoothing along each used axis.
+    for axis in 0..c {
+        let mut out = hist.clone();
+        for i in 0..BINS {
+            for j in 0..BINS {
+                for k in 0..BINS {
+                    let b = [i, j, k];
+                    let mut sum = 2.0 * hist[idx(b)];
+                    for d in [-1i64, 1] {
+                        let mut nb = b;
+                        let v = b[axis] as i64 + d;
+                        if (0..BINS as i64).contains(&v) {
+                            nb[axis] = v as usize;
+                            sum += hist[idx(nb)];
+                        }
+                    }
+                    out[idx(b)] = sum / 4.0;
+                }
+            }
+        }
+        hist = out;
+    }
+    appearance.data().chunks_exact(appearance.channels()).map(|p| hist[idx(bin(p))]).collect()
+}
+
+/// Share of pixels with the rarest colours that never serve as the
+/// reference of the nearest-patch rarity (rust, paint, stains: material of
+/// a colour the surface otherwise lacks).
+pub const RARE_COLOURS: f32 = 0.15;
+
+/// Distance from each pixel's patch to its nearest patch wholly inside
+/// `pool` (not overlapping it), spread over the pixels the patch covers,
+/// with the border band set from the nearest interior pixel.
+fn pool_distance(appearance: &Image, pool: &Mask, patch: usize) -> Result<Image> {
     let (w, h) = appearance.size();
     let r = patch / 2;
-    let mut ages: Vec<f32> = coarse.data().to_vec();
-    ages.sort_by(f32::total_cmp);
-    let median = ages[ages.len() / 2];
-    let pool = Mask::from_fn(w, h, |x, y| coarse.at(x, y, 0) <= median);
-    let domain = SourceDomain::new(w, h, r, Some(&pool)).or_else(|_| SourceDomain::new(w, h, r, None))?;
+    let domain = SourceDomain::new(w, h, r, Some(pool)).or_else(|_| SourceDomain::new(w, h, r, None))?;
     let metric = PatchMetric::mean_ssd(appearance.channels());
     let mut nnf = random_nnf(w, h, &domain, 0xa9e);
     let pm = PatchMatch { radius: r, iterations: 6, metric: &metric, uniformity: 0.0, max_search_radius: None, exclude_self: Some(patch) };
     pm.improve(appearance, appearance, &domain, &mut nnf, None, 0xa9e5);
-    let cost = Image::from_fn(w, h, 1, |x, y, p| p[0] = nnf.get(x, y).cost.max(0.0).sqrt());
-    // Spread each patch's distance over the pixels it covers.
-    let spread = gaussian_blur(&cost, r as f32 * 0.5 + 0.5);
-    if !spread.data().iter().all(|v| v.is_finite()) {
+    let clamp = |v: usize, n: usize| v.clamp(r.min(n / 2), (n - 1 - r).max(n / 2));
+    let cost = Image::from_fn(w, h, 1, |x, y, p| p[0] = nnf.get(clamp(x, w), clamp(y, h)).cost.max(0.0).sqrt());
+    Ok(gaussian_blur(&cost, r as f32 * 0.5 + 0.5))
+}
+
+/// Patches of the whole image each pixel's patch is compared with in
+/// [`detail_term`].
+pub const DENSITY_SAMPLES: usize = 256;
+/// The rank, among those samples, of the neighbour whose distance measures
+/// density: a patch with fewer than this many close copies among the
+/// samples (3%) is rare.
+pub const DENSITY_RANK: usize = 8;
+/// Quantile of the density distance that maps to detail 0: the rarest
+/// fifth of the pixels can show as weathered detail.
+pub const DETAIL_FLOOR: f32 = 0.8;
+
+/// Per pixel, how rare its patch is, at two scales (the `patch` at full
+/// and at half resolution), by two measures, the larger of which counts:
+/// - density: the distance from its patch to its [`DENSITY_RANK`]-th
+///   nearest among [`DENSITY_SAMPLES`] patches drawn from the whole image
+///   (a k-nearest-neighbour density estimate), rescaled from its
+///   [`DETAIL_FLOOR`] quantile. A nearest-neighbour distance cannot find a
+///   crack network: every crack patch has a twin somewhere; density can,
+///   since only a few percent of the patches are cracks.
+/// - distance to reference material: the distance to the nearest patch
+///   among pixels whose coarse age is below the median, whose density is
+///   ordinary and whose colour is not among the [`RARE_COLOURS`] (rust
+///   blooms are too common for the density measure but their colour is
+///   rare), rescaled from the [`DETAIL_QUANTILE`] of that distance over
+///   the reference itself.
+///
+/// Pixels closer to the border than the patch radius take the value of
+/// the nearest interior pixel (their patches are cut off and would look rare).
+fn detail_term(f: &Features, coarse: &Image, patch: usize) -> Result<Image> {
+    let appearance = &f.appearance;
+    let (w, h) = appearance.size();
+    let (hw, hh) = (w / 2, h / 2);
+    let small = (hw >= 4 * patch && hh >= 4 * patch).then(|| resize(appearance, hw, hh, Filter::Linear)).transpose()?;
+    let up = |img: Image| resize(&img, w, h, Filter::Linear);
+    let mut out = Image::new(w, h, 1);
+    let take = |out: &mut Image, mut d: Image, reference: Option<&Mask>, floor: f32| {
+        let values: Vec<f32> = match reference {
+            Some(m) if m.count() > 0 => d.data().iter().zip(m.bits()).filter(|(_, &b)| b).map(|(v, _)| *v).collect(),
+            _ => d.data().to_vec(),
+        };
+        rescale(d.data_mut(), &values, floor, TOP_QUANTILE);
+        out.data_mut().iter_mut().zip(d.data()).for_each(|(o, v)| *o = o.max(*v));
+    };
+    // Density.
+    take(&mut out, density_distance(appearance, patch), None, DETAIL_FLOOR);
+    if let Some(s) = &small {
+        take(&mut out, up(density_distance(s, patch))?, None, DETAIL_FLOOR);
+    }
+    // Distance to reference material.
+    let mut ages: Vec<f32> = coarse.data().to_vec();
+    let mid = ages.len() / 2;
+    let median = *ages.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let colour = colour_density(appearance);
+    let mut sorted = colour.clone();
+    let at = ((sorted.len() - 1) as f32 * RARE_COLOURS) as usize;
+    let rare = *sorted.select_nth_unstable_by(at, f32::total_cmp).1;
+    let dense = out.clone();
+    let pool = Mask::from_fn(w, h, |x, y| coarse.at(x, y, 0) <= median && colour[y * w + x] > rare && dense.at(x, y, 0) <= 0.0);
+    // The floor comes from pixels whose whole patch is reference material
+    // (a pixel next to a crack is in the pool but its patch holds the crack).
+    let core = pool.erode(patch);
+    take(&mut out, pool_distance(appearance, &pool, patch)?, Some(&core), DETAIL_QUANTILE);
+    if let Some(s) = &small {
+        let small_pool = Mask::from_fn(hw, hh, |x, y| pool.get((2 * x).min(w - 1), (2 * y).min(h - 1)) && pool.get((2 * x + 1).min(w - 1), (2 * y + 1).min(h - 1)));
+        take(&mut out, up(pool_distance(s, &small_pool, patch)?)?, Some(&core), DETAIL_QUANTILE);
+    }
+    if !out.data().iter().all(|v| v.is_finite()) {
         return Err(Error::Internal("the age map's detail term is not finite".into()));
     }
-    let mut intact: Vec<f32> = spread.data().iter().zip(pool.bits()).filter(|(_, &p)| p).map(|(v, _)| *v).collect();
-    intact.sort_by(f32::total_cmp);
-    let floor = intact[((intact.len() - 1) as f32 * DETAIL_QUANTILE) as usize];
-    let top = spread.value_range().1;
-    Ok(spread.map(|v| if top > floor { ((v - floor) / (top - floor)).clamp(0.0, 1.0) } else { 0.0 }))
+    Ok(out)
+}
+
+/// Per pixel, the distance from its patch (luminance texels and mean
+/// colour) to the [`DENSITY_RANK`]-th nearest of [`DENSITY_SAMPLES`]
+/// patches drawn on a fixed pseudo-random pattern, spread over the pixels
+/// the patch covers.
+fn density_distance(appearance: &Image, patch: usize) -> Image {
+    let (w, h) = appearance.size();
+    let r = patch / 2;
+    let c = appearance.channels();
+    let dims = patch * patch + c.saturating_sub(1);
+    // A descriptor per interior pixel: the patch's L texels, then its mean a, b.
+    let describe = |x: usize, y: usize, out: &mut [f32]| {
+        let mut k = 0;
+        let mut mean = [0f32; 2];
+        for v in 0..patch {
+            for u in 0..patch {
+                let px = appearance.pixel(x + u - r, y + v - r);
+                out[k] = px[0];
+                k += 1;
+                for (m, val) in mean.iter_mut().zip(&px[1..]) {
+                    *m += val;
+                }
+            }
+        }
+        let area = (patch * patch) as f32;
+        for (o, m) in out[k..].iter_mut().zip(mean) {
+            *o = m / area;
+        }
+    };
+    let (iw, ih) = (w - 2 * r, h - 2 * r);
+    let mut g = crate::rng::generator(0xde45, &[w as u64, h as u64]);
+    let count = DENSITY_SAMPLES.min(iw * ih);
+    let mut samples = vec![0f32; count * dims];
+    for s in samples.chunks_exact_mut(dims) {
+        let (x, y) = (r + g.gen_range(0..iw), r + g.gen_range(0..ih));
+        describe(x, y, s);
+    }
+    let rank = DENSITY_RANK.min(count).max(1);
+    let clamp = |v: usize, n: usize| v.clamp(r, n - 1 - r);
+    let mut rows = vec![0f32; w * h];
+    rows.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let mut d = vec![0f32; dims];
+        let mut best = vec![f32::INFINITY; rank];
+        let yy = clamp(y, h);
+        for (x, out) in row.iter_mut().enumerate() {
+            describe(clamp(x, w), yy, &mut d);
+            best.fill(f32::INFINITY);
+            for s in samples.chunks_exact(dims) {
+                let dist: f32 = d.iter().zip(s).map(|(a, b)| (a - b) * (a - b)).sum();
+                if dist < best[rank - 1] {
+                    let at = best.partition_point(|&b| b <= dist);
+                    best.copy_within(at..rank - 1, at + 1);
+                    best[at] = dist;
+                }
+            }
+            *out = (best[rank - 1] / dims as f32).sqrt();
+        }
+    });
+    let cost = Image::from_data(w, h, 1, rows).expect("sizes match");
+    gaussian_blur(&cost, r as f32 * 0.5 + 0.5)
 }

@@ -4,29 +4,51 @@
 //! 1. Tile detection ([`super::tiles`]). With a grid, the template is the
 //!    median tile: at each pixel, the median over every tile at the same
 //!    offset, leaving out the most-aged samples.
-//! 2. Without a grid (stochastic texture), the `discard` fraction of most
-//!    aged pixels may not be copied from, and the template is the input with
-//!    those pixels filled in from the rest ([`Synthesis::fill`]).
-//! 3. Either template is rebuilt from the input's allowed patches (guide:
-//!    luminance, colour, gradient direction; see [`super::rebuild`]), so
-//!    the result is made of real, non-weathered material. The paper uses
-//!    quilting texture transfer ([`Engine::Quilt`]); the default is guided
-//!    optimization started from such a transfer (see [`IntactParams::engine`]).
+//! 2. Without a grid (stochastic texture), the weathered pixels (with a
+//!    margin) are re-synthesized from the rest ([`Synthesis::fill`]); every
+//!    other pixel keeps the input exactly. No blend of old content is left.
+//! 3. The median-tile template is rebuilt from the input's allowed patches
+//!    (guide: luminance, colour, gradient direction; see
+//!    [`super::rebuild`]), so the result is made of real, non-weathered
+//!    material. The paper uses quilting texture transfer
+//!    ([`Engine::Quilt`]); the default is guided optimization started from
+//!    such a transfer (see [`IntactParams::engine`]).
+//!
+//! Which pixels are weathered: the paper discards a fixed 20% of the most
+//! aged pixels. A crack network is 5% of the surface and a peel can be 40%,
+//! so the default cut is automatic ([`weathered_cut`]): Otsu's threshold on
+//! the age map, at least [`MIN_CUT`], and at most `weathered_max` of the
+//! surface. `discard` restores the paper's fixed fraction.
 
 use super::layers::Layers;
 use super::rebuild::{rebuild, Engine, RebuildParams};
 use super::tiles::{self, Lattice};
 use crate::error::{Error, Result};
+use crate::image::filter::gaussian_blur;
 use crate::image::{Image, Mask};
 use crate::synth::{OptimizeParams, Synthesis};
 use serde::{Deserialize, Serialize};
+
+/// Patch side of the fill that makes the stochastic template.
+const FILL_PATCH: usize = 7;
+
+/// Lowest age the automatic cut accepts as weathered: on a clean texture
+/// Otsu's threshold would split noise.
+pub const MIN_CUT: f32 = 0.25;
+
+/// Margin, in pixels, around weathered pixels that is re-synthesized too
+/// (a lip, a halo, the soft edge of the age map).
+pub const MARGIN: usize = 2;
 
 /// Parameters of the intact texture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct IntactParams {
-    /// Fraction of the most-aged pixels never used as sources. Paper: 20%.
-    pub discard: f32,
+    /// Fixed fraction of the most-aged pixels treated as weathered (the
+    /// paper: 20%); `None` = the automatic cut of [`weathered_cut`].
+    pub discard: Option<f32>,
+    /// Largest fraction of the surface the automatic cut may call weathered.
+    pub weathered_max: f32,
     /// Look for a tile grid (off: always treat the texture as stochastic).
     pub detect_tiles: bool,
     /// Which synthesis rebuilds the template. The paper quilts; guided
@@ -40,7 +62,7 @@ pub struct IntactParams {
 
 impl Default for IntactParams {
     fn default() -> Self {
-        IntactParams { discard: 0.2, detect_tiles: true, engine: Engine::Optimize, rebuild: RebuildParams::default() }
+        IntactParams { discard: None, weathered_max: 0.6, detect_tiles: true, engine: Engine::Optimize, rebuild: RebuildParams::default() }
     }
 }
 
@@ -54,25 +76,77 @@ pub struct Intact {
     pub template: Image,
     /// Input pixels the rebuild could copy from.
     pub allowed: Mask,
+    /// The age above which a pixel counted as weathered.
+    pub cut: f32,
+    /// The fraction of the surface judged weathered.
+    pub weathered_fraction: f32,
 }
 
-/// Pixels whose age is below the (1 - discard) quantile (of their own
-/// layer, with layers).
-pub fn allowed_sources(age: &Image, discard: f32, layers: Option<&Layers>) -> Mask {
+/// The automatic weathered cut of an age map: Otsu's threshold (the level
+/// that best splits the ages into two classes), at least [`MIN_CUT`],
+/// raised until at most `max_fraction` of the pixels lie above it.
+/// Returns the cut and the fraction above it.
+pub fn weathered_cut(age: &Image, max_fraction: f32) -> (f32, f32) {
+    const BINS: usize = 256;
+    let mut hist = [0f64; BINS];
+    for &v in age.data() {
+        hist[((v.clamp(0.0, 1.0) * (BINS - 1) as f32).round()) as usize] += 1.0;
+    }
+    let total: f64 = hist.iter().sum();
+    let mean_all: f64 = hist.iter().enumerate().map(|(i, c)| i as f64 * c).sum::<f64>() / total;
+    let (mut w0, mut sum0, mut best, mut cut) = (0f64, 0f64, -1f64, 0usize);
+    for (i, &c) in hist.iter().enumerate().take(BINS - 1) {
+        w0 += c;
+        sum0 += i as f64 * c;
+        let w1 = total - w0;
+        if w0 == 0.0 || w1 == 0.0 {
+            continue;
+        }
+        let (m0, m1) = (sum0 / w0, (mean_all * total - sum0) / w1);
+        let between = w0 * w1 * (m0 - m1) * (m0 - m1);
+        if between > best {
+            (best, cut) = (between, i + 1);
+        }
+    }
+    let mut level = (cut as f32 / (BINS - 1) as f32).max(MIN_CUT);
+    let above = |l: f32| age.data().iter().filter(|&&v| v >= l).count() as f32 / age.data().len().max(1) as f32;
+    if above(level) > max_fraction {
+        let mut sorted = age.data().to_vec();
+        sorted.sort_by(f32::total_cmp);
+        level = sorted[(((1.0 - max_fraction) * sorted.len() as f32) as usize).min(sorted.len() - 1)].max(level);
+    }
+    (level, above(level))
+}
+
+/// The age cut of each layer: the (1 - discard) quantile of its ages, or
+/// with `discard` = `None` the automatic [`weathered_cut`].
+fn layer_cuts(age: &Image, discard: Option<f32>, weathered_max: f32, layers: Option<&Layers>) -> Vec<f32> {
     let label = |i: usize| layers.map_or(0, |l| l.labels[i] as usize);
     let count = layers.map_or(1, |l| l.count);
-    let cuts: Vec<f32> = (0..count)
+    (0..count)
         .map(|l| {
             let mut sorted: Vec<f32> = age.data().iter().enumerate().filter(|(i, _)| label(*i) == l).map(|(_, v)| *v).collect();
-            sorted.sort_by(f32::total_cmp);
             if sorted.is_empty() {
                 return f32::INFINITY;
             }
-            sorted[(((1.0 - discard) * sorted.len() as f32) as usize).min(sorted.len() - 1)]
+            match discard {
+                Some(d) if d <= 0.0 => f32::INFINITY,
+                Some(d) => {
+                    sorted.sort_by(f32::total_cmp);
+                    sorted[(((1.0 - d) * sorted.len() as f32) as usize).min(sorted.len() - 1)]
+                }
+                None => weathered_cut(&Image::from_data(sorted.len(), 1, 1, sorted).expect("one row"), weathered_max).0,
+            }
         })
-        .collect();
+        .collect()
+}
+
+/// Pixels below their layer's age cut (see [`layer_cuts`]).
+pub fn allowed_sources(age: &Image, discard: Option<f32>, weathered_max: f32, layers: Option<&Layers>) -> Mask {
+    let cuts = layer_cuts(age, discard, weathered_max, layers);
+    let label = |i: usize| layers.map_or(0, |l| l.labels[i] as usize);
     let w = age.width();
-    Mask::from_fn(w, age.height(), |x, y| discard <= 0.0 || age.at(x, y, 0) < cuts[label(y * w + x)])
+    Mask::from_fn(w, age.height(), |x, y| age.at(x, y, 0) < cuts[label(y * w + x)])
 }
 
 /// Whether the median tile explains the allowed (intact) pixels: their
@@ -109,10 +183,20 @@ pub fn intact(img: &Image, age: &Image, layers: Option<&Layers>, params: &Intact
             img.height()
         )));
     }
-    if !(0.0..0.95).contains(&params.discard) {
-        return Err(Error::invalid("the discarded fraction must be in [0, 0.95)"));
+    if params.discard.is_some_and(|d| !(0.0..0.95).contains(&d)) || !(params.weathered_max > 0.0 && params.weathered_max < 0.95) {
+        return Err(Error::invalid("the discarded fraction must be in [0, 0.95) and the weathered maximum in (0, 0.95)"));
     }
-    let allowed = allowed_sources(age, params.discard, layers);
+    let below = allowed_sources(age, params.discard, params.weathered_max, layers);
+    let weathered_fraction = 1.0 - below.count() as f32 / (img.width() * img.height()) as f32;
+    let cut = layer_cuts(age, params.discard, params.weathered_max, None)[0];
+    // The weathered pixels and a margin are re-made; only whole patches
+    // can be copied, so allowed slivers narrower than the fill's patch are
+    // dropped (an opening by its square). Nothing left (weathering
+    // everywhere, or a speckled map): every pixel may serve.
+    let hole = Mask::from_fn(img.width(), img.height(), |x, y| !below.get(x, y)).dilate(MARGIN);
+    let kept = Mask::from_fn(img.width(), img.height(), |x, y| !hole.get(x, y));
+    let opened = kept.erode(FILL_PATCH / 2).dilate(FILL_PATCH / 2);
+    let allowed = if opened.count() > 0 { opened } else { Mask::filled(img.width(), img.height(), true) };
     let mut lattice = if params.detect_tiles { tiles::detect(img) } else { None };
     let median = lattice.map(|l| tiles::median_tile(img, &l, Some(&allowed)));
     if let Some(m) = &median {
@@ -120,15 +204,29 @@ pub fn intact(img: &Image, age: &Image, layers: Option<&Layers>, params: &Intact
             lattice = None;
         }
     }
-    let template = match (&lattice, median) {
-        (Some(_), Some(m)) => m,
-        _ if params.discard > 0.0 => {
-            let hole = Mask::from_fn(img.width(), img.height(), |x, y| !allowed.get(x, y)).dilate(1);
-            let op = OptimizeParams { patch: 7, ..OptimizeParams::default() };
-            Synthesis::new(img).fill(img, &hole).source_mask(&allowed).seed(seed).optimize(&op)?.image
+    let (template, image) = match (&lattice, median) {
+        (Some(_), Some(m)) => {
+            let image = rebuild(img, &m, Some(&allowed), params.engine, &params.rebuild, seed ^ 0x1a7)?;
+            (m, image)
         }
-        _ => img.clone(),
+        _ if hole.count() > 0 && allowed.count() < img.width() * img.height() => {
+            let op = OptimizeParams { patch: FILL_PATCH, ..OptimizeParams::default() };
+            let filled = Synthesis::new(img).fill(img, &hole).source_mask(&allowed).seed(seed).optimize(&op)?.image;
+            // The fill's vote averages overlapping patches and dulls large
+            // holes: rebuild it from whole allowed patches (guided by the
+            // fill), and keep the input exactly outside the hole.
+            let rebuilt = rebuild(img, &filled, Some(&allowed), params.engine, &params.rebuild, seed ^ 0x1a7)?;
+            let soft = gaussian_blur(&hole.to_image(), 1.0);
+            let n = img.channels();
+            let image = Image::from_fn(img.width(), img.height(), n, |x, y, p| {
+                let a = if hole.get(x, y) { 1.0 } else { soft.at(x, y, 0) };
+                for (c, v) in p.iter_mut().enumerate() {
+                    *v = img.at(x, y, c) * (1.0 - a) + rebuilt.at(x, y, c) * a;
+                }
+            });
+            (filled, image)
+        }
+        _ => (img.clone(), img.clone()),
     };
-    let image = rebuild(img, &template, Some(&allowed), params.engine, &params.rebuild, seed ^ 0x1a7)?;
-    Ok(Intact { image, lattice, template, allowed })
+    Ok(Intact { image, lattice, template, allowed, cut, weathered_fraction })
 }

@@ -71,6 +71,9 @@ pub struct Weathered {
     pub intact: Image,
     /// The tile grid, when one was found.
     pub lattice: Option<tiles::Lattice>,
+    /// The age cut and the fraction of the surface judged weathered (`None`
+    /// with a user intact texture).
+    pub weathered: Option<(f32, f32)>,
     /// The colour layers, when asked for.
     pub layers: Option<layers::Layers>,
     /// Every frame in time order: intact (t = 0), past, input (t = 1), future.
@@ -142,7 +145,7 @@ pub fn weather(
     let layers = resolve_layers(input, params.layers, overrides.labels, seed)?;
     let (age, age_grid) = resolve_age(input, &params.age, overrides.age, layers.as_ref())?;
     progress(Stage::AgeMap);
-    let (intact_img, lattice) = match overrides.intact {
+    let (intact_img, lattice, weathered) = match overrides.intact {
         Some(i) => {
             if i.size() != input.size() || i.channels() != input.channels() {
                 return Err(Error::invalid(format!(
@@ -155,11 +158,11 @@ pub fn weather(
                     input.channels()
                 )));
             }
-            (i.clone(), None)
+            (i.clone(), None, None)
         }
         None => {
             let r = intact(input, &age, layers.as_ref(), &params.intact, crate::rng::derive(seed, &[1]))?;
-            (r.image, r.lattice)
+            (r.image, r.lattice, Some((r.cut, r.weathered_fraction)))
         }
     };
     progress(Stage::Intact);
@@ -179,5 +182,5 @@ pub fn weather(
     frames.extend(past);
     frames.push(Frame { t: 1.0, image: input.clone() });
     frames.extend(future);
-    Ok(Weathered { age, age_grid, intact: intact_img, lattice, layers, frames })
+    Ok(Weathered { age, age_grid, intact: intact_img, lattice, weathered, layers, frames })
 }

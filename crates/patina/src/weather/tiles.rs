@@ -32,6 +32,11 @@ pub const CANDIDATE_QUANTILE: f32 = 0.005;
 pub const MATCH_RATIO: f32 = 0.7;
 /// Fewest verified repetitions (besides the centre) that make a grid.
 pub const MIN_REPEATS: usize = 3;
+/// Shortest period, in pixels, a grid or stripes may have.
+pub const MIN_PERIOD: usize = 6;
+/// A repeat's distance times this must stay below the distance half-way
+/// back to the centre.
+const RIDGE: f32 = 1.5;
 /// Most candidate repeats verified and voted on.
 const MAX_CANDIDATES: usize = 96;
 
@@ -43,8 +48,42 @@ pub struct Lattice {
     pub origin: [f32; 2],
 }
 
-/// Detect a tile grid; `None` means a stochastic texture.
+/// Detect a tile grid; `None` means a stochastic texture (or one periodic
+/// in a single direction only, see [`periods`]).
 pub fn detect(img: &Image) -> Option<Lattice> {
+    match periods(img)? {
+        Periodicity::Grid(l) => Some(l),
+        Periodicity::Stripes(_) => None,
+    }
+}
+
+/// How a texture repeats.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum Periodicity {
+    /// A tile grid.
+    Grid(Lattice),
+    /// Repeats along one direction only (boards, siding, grooves): the
+    /// shortest period vector.
+    Stripes([f32; 2]),
+}
+
+impl Periodicity {
+    /// The period vectors: one for stripes, two for a grid.
+    pub fn vectors(&self) -> Vec<[f32; 2]> {
+        match self {
+            Periodicity::Grid(l) => vec![l.a, l.b],
+            Periodicity::Stripes(v) => vec![*v],
+        }
+    }
+}
+
+/// Detect how the texture repeats, by the steps of the module docs; a
+/// single direction whose repeats are verified but that has no second,
+/// non-collinear one is [`Periodicity::Stripes`]. `None` = stochastic.
+/// Appearance first; then, for boards and siding whose tone changes from
+/// board to board while their grooves repeat, the edges alone (the
+/// gradient-direction features).
+pub fn periods(img: &Image) -> Option<Periodicity> {
     let (w, h) = img.size();
     let (pw, ph) = ((w / 3).max(4), (h / 3).max(4));
     if w < 2 * pw || h < 2 * ph {
@@ -52,8 +91,87 @@ pub fn detect(img: &Image) -> Option<Lattice> {
     }
     let f = Features::new(img, true).ok()?;
     let stacked = f.stacked();
-    let weights = f.weights(1.0, 4.0);
-    let spectral = SpectralSource::new(&stacked, &weights);
+    periods_of(&stacked, &f.weights(1.0, 4.0)).or_else(|| axis_stripes(&f.appearance))
+}
+
+/// Boards, siding and grooves seen square-on, whose tone changes from
+/// board to board so that whole patches do not repeat: the edges across
+/// the boards do. Per axis, the profile of the edge energy across it (the
+/// mean |dL| along each row, or column) and its autocorrelation; a
+/// period is the first autocorrelation peak of at least
+/// [`PROFILE_PEAK`] of the zero-lag value, from [`MIN_PERIOD`] to a third
+/// of the side, confirmed by a peak at twice the lag. Stripes only when
+/// exactly one axis has a period (both: a grid, which [`periods_of`] owns).
+fn axis_stripes(appearance: &Image) -> Option<Periodicity> {
+    let (w, h) = appearance.size();
+    let mut rows = vec![0f32; h];
+    let mut cols = vec![0f32; w];
+    for y in 1..h {
+        for x in 1..w {
+            let l = appearance.at(x, y, 0);
+            rows[y] += (l - appearance.at(x, y - 1, 0)).abs() / w as f32;
+            cols[x] += (l - appearance.at(x - 1, y, 0)).abs() / h as f32;
+        }
+    }
+    match (profile_period(&rows[1..]), profile_period(&cols[1..])) {
+        (Some((p, _)), None) => Some(Periodicity::Stripes([0.0, p])),
+        (None, Some((p, _))) => Some(Periodicity::Stripes([p, 0.0])),
+        // Both: stripes along the clearly stronger one (board ends make a
+        // weak, irregular period along the boards).
+        (Some((p, a)), Some((_, b))) if a > DOMINANT * b => Some(Periodicity::Stripes([0.0, p])),
+        (Some((_, a)), Some((p, b))) if b > DOMINANT * a => Some(Periodicity::Stripes([p, 0.0])),
+        _ => None,
+    }
+}
+
+/// How much stronger (peak over zero lag) one axis's period must be than
+/// the other's for stripes.
+const DOMINANT: f32 = 1.5;
+
+/// Share of the zero-lag autocorrelation a profile's period peak needs.
+pub const PROFILE_PEAK: f32 = 0.3;
+
+/// The period of a 1-D profile (see [`axis_stripes`]), refined to a
+/// sub-sample lag by a parabola through the peak, and the peak's share of
+/// the zero-lag value.
+fn profile_period(profile: &[f32]) -> Option<(f32, f32)> {
+    let n = profile.len();
+    // Smooth over a couple of samples: a groove's two edges become one bump.
+    let kernel = [0.06f32, 0.24, 0.4, 0.24, 0.06];
+    let smooth: Vec<f32> = (0..n)
+        .map(|i| kernel.iter().enumerate().map(|(k, w)| w * profile[(i + k).saturating_sub(2).min(n - 1)]).sum())
+        .collect();
+    let mean = smooth.iter().sum::<f32>() / n.max(1) as f32;
+    let v: Vec<f32> = smooth.iter().map(|p| p - mean).collect();
+    let ac = |lag: usize| -> f32 { v.iter().zip(&v[lag..]).map(|(a, b)| a * b).sum::<f32>() / (n - lag) as f32 };
+    let zero = ac(0);
+    if zero <= 0.0 || n < 3 * MIN_PERIOD {
+        return None;
+    }
+    let max_lag = n / 3;
+    let values: Vec<f32> = (0..=max_lag + 1).map(ac).collect();
+    let peak = |lag: usize| lag >= 1 && lag < values.len() - 1 && values[lag] >= values[lag - 1] && values[lag] >= values[lag + 1];
+    // The fundamental: the shortest peak nearly as high as the highest.
+    let top = (MIN_PERIOD..=max_lag).filter(|&l| peak(l)).map(|l| values[l]).fold(f32::MIN, f32::max);
+    let lag = (MIN_PERIOD..=max_lag).find(|&l| peak(l) && values[l] >= PROFILE_PEAK * zero && values[l] >= 0.85 * top)?;
+    // Confirmed by a peak near twice the lag (when it fits).
+    if 2 * lag + 1 < n {
+        let twice = (2 * lag - 1..=2 * lag + 1).map(ac).fold(f32::MIN, f32::max);
+        if twice < PROFILE_PEAK * zero {
+            return None;
+        }
+    }
+    let (a, b, c) = (values[lag - 1], values[lag], values[lag + 1]);
+    let denom = a - 2.0 * b + c;
+    let offset = if denom.abs() > 1e-12 { 0.5 * (a - c) / denom } else { 0.0 };
+    Some((lag as f32 + offset.clamp(-0.5, 0.5), b / zero))
+}
+
+/// [`periods`] on one feature image with per-channel weights.
+fn periods_of(stacked: &Image, weights: &[f32]) -> Option<Periodicity> {
+    let (w, h) = stacked.size();
+    let (pw, ph) = ((w / 3).max(4), (h / 3).max(4));
+    let spectral = SpectralSource::new(stacked, weights);
     let (vw, vh) = (w - pw + 1, h - ph + 1);
     let distances = |x: usize, y: usize| -> Vec<f32> {
         let t = stacked.crop(x, y, pw, ph).expect("placement inside the image").into_data();
@@ -74,9 +192,32 @@ pub fn detect(img: &Image) -> Option<Lattice> {
         let v = m[y * vw + x];
         (y.saturating_sub(1)..=(y + 1).min(vh - 1)).all(|yy| (x.saturating_sub(1)..=(x + 1).min(vw - 1)).all(|xx| m[yy * vw + xx] >= v))
     };
+    // An offset is a repeat, not the slope of the centre's own valley (a
+    // smooth grain matches itself a few pixels along), when it is at least
+    // MIN_PERIOD long, lands on a low distance and has a ridge half-way
+    // back to the centre.
+    let is_repeat = |o: [i32; 2]| -> bool {
+        let at = |dx: i32, dy: i32| -> Option<f32> {
+            let (x, y) = (centre.0 as i64 + dx as i64, centre.1 as i64 + dy as i64);
+            ((0..vw as i64).contains(&x) && (0..vh as i64).contains(&y)).then(|| map[y as usize * vw + x as usize])
+        };
+        let long = o[0] * o[0] + o[1] * o[1] >= (MIN_PERIOD * MIN_PERIOD) as i32;
+        // The highest distance a quarter, half and three quarters of the way
+        // (a multiple of the period has ridges between its repeats too).
+        let ridge = |s: i32| -> Option<f32> {
+            [1, 2, 3].iter().map(|&k| at(s * o[0] * k / 4, s * o[1] * k / 4)).try_fold(f32::MIN, |m, v| v.map(|v| m.max(v)))
+        };
+        let side = |s: i32| match (at(s * o[0], s * o[1]), ridge(s)) {
+            (Some(v), Some(mid)) => Some(long && v < MATCH_RATIO * median && mid > RIDGE * v),
+            _ => None,
+        };
+        // Beyond the map on one side: judge by the other.
+        side(1).or_else(|| side(-1)).unwrap_or(false)
+    };
     let mut candidates: Vec<(usize, usize)> = (0..vw * vh)
         .map(|i| (i % vw, i / vw))
         .filter(|&(x, y)| (x, y) != centre && map[y * vw + x] <= cut && map[y * vw + x] < MATCH_RATIO * median && min_at(&map, x, y))
+        .filter(|&(x, y)| is_repeat([x as i32 - centre.0 as i32, y as i32 - centre.1 as i32]))
         .collect();
     // The closest matches only: re-matching and the basis vote grow with
     // the square and the fourth power of the count (an outlier pixel can
@@ -104,7 +245,10 @@ pub fn detect(img: &Image) -> Option<Lattice> {
     }
     let mut points: Vec<[f32; 2]> = verified.iter().map(|&(x, y)| [x as f32, y as f32]).collect();
     points.push([centre.0 as f32, centre.1 as f32]);
-    let (a, b) = basis(&points)?;
+    let (a, b) = match basis(&points, &is_repeat)? {
+        (a, Some(b)) => (a, b),
+        (a, None) => return stripes(&points, a),
+    };
     let lattice = reduce(refine(&points, a, b, [centre.0 as f32, centre.1 as f32]));
     // Express the origin as the lattice point nearest the image's top-left.
     let o = lattice.origin;
@@ -112,12 +256,33 @@ pub fn detect(img: &Image) -> Option<Lattice> {
     let (i, j) = (inv[0][0] * o[0] + inv[0][1] * o[1], inv[1][0] * o[0] + inv[1][1] * o[1]);
     let (i, j) = (i.floor(), j.floor());
     let origin = [o[0] - i * lattice.a[0] - j * lattice.b[0], o[1] - i * lattice.a[1] - j * lattice.b[1]];
-    Some(Lattice { origin, ..lattice })
+    Some(Periodicity::Grid(Lattice { origin, ..lattice }))
+}
+
+/// One period direction: `a` refined as the mean of the verified offsets
+/// that are whole multiples of it (least squares through the origin),
+/// when at least [`MIN_REPEATS`] of them line up.
+fn stripes(points: &[[f32; 2]], a: [f32; 2]) -> Option<Periodicity> {
+    let len2 = a[0] * a[0] + a[1] * a[1];
+    let centre = points.last()?;
+    let (mut num, mut den, mut count) = ([0f32; 2], 0f32, 0usize);
+    for p in &points[..points.len() - 1] {
+        let d = [p[0] - centre[0], p[1] - centre[1]];
+        let k = ((d[0] * a[0] + d[1] * a[1]) / len2).round();
+        if k == 0.0 || (d[0] - k * a[0]).abs() > 1.5 || (d[1] - k * a[1]).abs() > 1.5 {
+            continue;
+        }
+        num = [num[0] + k * d[0], num[1] + k * d[1]];
+        den += k * k;
+        count += 1;
+    }
+    (count >= MIN_REPEATS).then(|| Periodicity::Stripes([num[0] / den, num[1] / den]))
 }
 
 /// The two most frequent non-collinear pairwise offsets (each counted with
-/// the offsets within 1 px of it), shortest first.
-fn basis(points: &[[f32; 2]]) -> Option<([f32; 2], [f32; 2])> {
+/// the offsets within 1 px of it), shortest first; the second is `None`
+/// when every frequent offset lies along the first.
+fn basis(points: &[[f32; 2]], is_repeat: &dyn Fn([i32; 2]) -> bool) -> Option<([f32; 2], Option<[f32; 2]>)> {
     let mut offsets: Vec<[i32; 2]> = Vec::new();
     for (i, p) in points.iter().enumerate() {
         for q in &points[i + 1..] {
@@ -130,16 +295,16 @@ fn basis(points: &[[f32; 2]]) -> Option<([f32; 2], [f32; 2])> {
         }
     }
     let votes = |o: [i32; 2]| offsets.iter().filter(|v| (v[0] - o[0]).abs() <= 1 && (v[1] - o[1]).abs() <= 1).count();
-    let mut ranked: Vec<([i32; 2], usize)> = offsets.iter().map(|&o| (o, votes(o))).collect();
+    let mut ranked: Vec<([i32; 2], usize)> = offsets.iter().filter(|&&o| is_repeat(o)).map(|&o| (o, votes(o))).collect();
     let len2 = |o: [i32; 2]| o[0] * o[0] + o[1] * o[1];
     ranked.sort_by(|x, y| y.1.cmp(&x.1).then(len2(x.0).cmp(&len2(y.0))).then(x.0.cmp(&y.0)));
     let a = ranked.first()?.0;
     let b = ranked.iter().find(|(o, n)| {
         let cross = (a[0] * o[1] - a[1] * o[0]).abs() as f32;
         *n >= 2 && cross > 0.5 * (len2(a) as f32).sqrt() * (len2(*o) as f32).sqrt()
-    })?;
+    });
     let f = |o: [i32; 2]| [o[0] as f32, o[1] as f32];
-    Some((f(a), f(b.0)))
+    Some((f(a), b.map(|b| f(b.0))))
 }
 
 /// Gauss (Lagrange) reduction: the same lattice with its shortest basis.
@@ -219,19 +384,36 @@ fn sample(img: &Image, x: f32, y: f32, out: &mut [f32]) -> bool {
 /// With `allowed`, samples at pixels outside it are left out wherever at
 /// least one sample is allowed.
 pub fn median_tile(img: &Image, lattice: &Lattice, allowed: Option<&Mask>) -> Image {
+    median_translates(img, &[lattice.a, lattice.b], allowed)
+}
+
+/// Each pixel the per-channel median of the image at every translate by
+/// whole multiples of the period `vectors` (one or two of them) that lands
+/// inside it: the median tile of a grid, the median board of stripes.
+/// `allowed` as in [`median_tile`].
+pub fn median_translates(img: &Image, vectors: &[[f32; 2]], allowed: Option<&Mask>) -> Image {
     let (w, h, n) = (img.width(), img.height(), img.channels());
-    let Some(inv) = invert(lattice.a, lattice.b) else { return img.clone() };
-    // Range of tile indices that can reach the image.
+    let a = vectors.first().copied().unwrap_or([0.0, 0.0]);
+    let b = vectors.get(1).copied().unwrap_or([0.0, 0.0]);
+    // Multiples that can carry a pixel of the image onto another: the
+    // lattice coordinates of the image's corners, relative to each other.
     let corners = [[0.0, 0.0], [w as f32, 0.0], [0.0, h as f32], [w as f32, h as f32]];
-    let (mut lo, mut hi) = ([i32::MAX; 2], [i32::MIN; 2]);
+    let coords = |p: [f32; 2]| -> [f32; 2] {
+        match (vectors.len(), invert(a, b)) {
+            (2, Some(inv)) => [inv[0][0] * p[0] + inv[0][1] * p[1], inv[1][0] * p[0] + inv[1][1] * p[1]],
+            _ => [(p[0] * a[0] + p[1] * a[1]) / (a[0] * a[0] + a[1] * a[1]).max(1e-6), 0.0],
+        }
+    };
+    let (mut lo, mut hi) = ([f32::MAX; 2], [f32::MIN; 2]);
     for c in corners {
-        let d = [c[0] - lattice.origin[0], c[1] - lattice.origin[1]];
-        let ij = [inv[0][0] * d[0] + inv[0][1] * d[1], inv[1][0] * d[0] + inv[1][1] * d[1]];
+        let ij = coords(c);
         for k in 0..2 {
-            lo[k] = lo[k].min(ij[k].floor() as i32 - 1);
-            hi[k] = hi[k].max(ij[k].ceil() as i32 + 1);
+            lo[k] = lo[k].min(ij[k]);
+            hi[k] = hi[k].max(ij[k]);
         }
     }
+    let ra = (hi[0] - lo[0]).ceil() as i32 + 1;
+    let rb = if vectors.len() > 1 { (hi[1] - lo[1]).ceil() as i32 + 1 } else { 0 };
     let mut data = vec![0f32; w * h * n];
     data.par_chunks_mut(w * n).enumerate().for_each(|(y, row)| {
         let mut values: Vec<Vec<f32>> = vec![Vec::new(); n];
@@ -239,10 +421,10 @@ pub fn median_tile(img: &Image, lattice: &Lattice, allowed: Option<&Mask>) -> Im
         let mut px = vec![0f32; n];
         for x in 0..w {
             values.iter_mut().chain(rejected.iter_mut()).for_each(Vec::clear);
-            for i in lo[0]..=hi[0] {
-                for j in lo[1]..=hi[1] {
-                    let sx = x as f32 + i as f32 * lattice.a[0] + j as f32 * lattice.b[0];
-                    let sy = y as f32 + i as f32 * lattice.a[1] + j as f32 * lattice.b[1];
+            for i in -ra..=ra {
+                for j in -rb..=rb {
+                    let sx = x as f32 + i as f32 * a[0] + j as f32 * b[0];
+                    let sy = y as f32 + i as f32 * a[1] + j as f32 * b[1];
                     if sample(img, sx, sy, &mut px) {
                         let ok = allowed.is_none_or(|m| m.get(sx.round() as usize, sy.round() as usize));
                         let into = if ok { &mut values } else { &mut rejected };
