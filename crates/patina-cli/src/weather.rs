@@ -19,6 +19,22 @@ fn timed(frames: &[weather::Frame]) -> Vec<(f32, &Image)> {
     frames.iter().map(|f| (f.t, &f.image)).collect()
 }
 
+/// `--growth` choices.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GrowthArg {
+    Front,
+    Patches,
+}
+
+impl From<GrowthArg> for weather::Growth {
+    fn from(g: GrowthArg) -> Self {
+        match g {
+            GrowthArg::Front => weather::Growth::Front,
+            GrowthArg::Patches => weather::Growth::Patches,
+        }
+    }
+}
+
 /// Flags of the age map and the intact texture, shared by the subcommands.
 #[derive(clap::Args, Clone)]
 pub struct MethodArgs {
@@ -85,7 +101,10 @@ pub struct Args {
     /// Time of the last future frame minus 1.
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 100.0))]
     pub span: f32,
-    /// Patch blends per future frame [default: half the age map's grid cells, N^2 / 2].
+    /// How future frames grow: front (from the existing damage, along the age map, with a few new sites) or patches (the paper's eq. 2 patch blends).
+    #[arg(long, value_enum, default_value_t = GrowthArg::Front)]
+    pub growth: GrowthArg,
+    /// Patch blends per future frame, with --growth patches [default: half the age map's grid cells, N^2 / 2].
     #[arg(long, value_parser = |s: &str| crate::flags::count(s, 1, 4096))]
     pub steps: Option<usize>,
     /// A user age map (grey, white = weathered) replacing the automatic one.
@@ -160,6 +179,7 @@ pub fn run(args: Args) -> Result<()> {
     params.sequence.future = args.future;
     params.sequence.future_span = args.span;
     params.sequence.steps = args.steps;
+    params.sequence.growth = args.growth.into();
     let overrides = Overrides { age: user_age.as_ref(), intact: user_intact.as_ref(), labels: labels.as_ref() };
     let total = (2 + args.past + args.future) as u64;
     let result = with_bar("weather", |report| {

@@ -2,7 +2,7 @@
 //! make: clean procedural textures with weathering injected in a known mask.
 
 use patina::image::Image;
-use patina::metrics::{roc_auc, weathering_residue};
+use patina::metrics::{pacing, roc_auc, weathering_residue};
 use patina::samples::{self, Weathering};
 use patina::weather::rebuild::colour_distance;
 use patina::weather::{self, age_map, intact, layers::Layers, tiles, transfer, AgeParams, IntactParams, Overrides, WeatherParams};
@@ -23,20 +23,21 @@ fn weathered_area(frame: &Image, intact: &Image) -> f32 {
 /// The ground truth of the issue: on a stochastic base (stucco), tiles and
 /// planks, a crack network over the whole surface, 37% peeling with lips,
 /// and 10% rust. Per case, the lowest age-map AUC and the highest intact
-/// residue this version reaches with some margin; below them, a change
+/// residue this version reaches, with some margin; below them, a change
 /// made the method worse. (The issue's goal is AUC 0.9 and residue 0.2 on
-/// every case; the crack networks on stucco and planks and the peels'
-/// residue are not there yet.)
+/// every case. Not there yet: the crack network on planks, AUC 0.87, and
+/// the residue of the crack network on stucco, 0.25, and of the peels on
+/// stucco and planks, 0.32 and 0.23.)
 const GROUND_TRUTH: [(&str, Weathering, f32, f32, f32); 9] = [
-    ("stucco", Weathering::CrackNetwork, 0.0, 0.72, 0.3),
-    ("stucco", Weathering::Peel, 0.32, 0.9, 0.45),
-    ("stucco", Weathering::Rust, 0.1, 0.93, 0.25),
-    ("tiles", Weathering::CrackNetwork, 0.0, 0.85, 0.1),
-    ("tiles", Weathering::Peel, 0.32, 0.93, 0.1),
-    ("tiles", Weathering::Rust, 0.1, 0.95, 0.1),
-    ("planks", Weathering::CrackNetwork, 0.0, 0.72, 0.25),
-    ("planks", Weathering::Peel, 0.32, 0.88, 0.45),
-    ("planks", Weathering::Rust, 0.1, 0.9, 0.15),
+    ("stucco", Weathering::CrackNetwork, 0.0, 0.87, 0.32),
+    ("stucco", Weathering::Peel, 0.32, 0.93, 0.4),
+    ("stucco", Weathering::Rust, 0.1, 0.95, 0.2),
+    ("tiles", Weathering::CrackNetwork, 0.0, 0.88, 0.05),
+    ("tiles", Weathering::Peel, 0.32, 0.95, 0.05),
+    ("tiles", Weathering::Rust, 0.1, 0.97, 0.05),
+    ("planks", Weathering::CrackNetwork, 0.0, 0.83, 0.12),
+    ("planks", Weathering::Peel, 0.32, 0.9, 0.3),
+    ("planks", Weathering::Rust, 0.1, 0.93, 0.12),
 ];
 
 #[test]
@@ -225,4 +226,82 @@ fn layers_split_two_materials_by_colour() {
     assert_eq!(norm.at(0, 0, 0), 0.0);
     assert_eq!(norm.at(31, 0, 0), 1.0);
     assert_eq!(norm.at(32, 0, 0), 0.0);
+}
+
+#[test]
+fn past_frames_pace_the_change_evenly() {
+    // 37% peeling on planks: the paper's age thresholds revealed most of
+    // it in one step; ranks spread it over the three past steps.
+    let (img, _) = samples::weather(&samples::planks(192, 192, 3), Weathering::Peel, 0.32, 11);
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (3, 0);
+    let r = weather::weather(&img, &p, Overrides::default(), 2, &|_| {}).unwrap();
+    let frames: Vec<&Image> = r.frames.iter().map(|f| &f.image).collect();
+    assert_eq!(frames.len(), 5);
+    let pace = pacing(&frames).unwrap();
+    assert!(pace <= 0.45, "one step brings {:.0}% of the intact -> input change", 100.0 * pace);
+}
+
+#[test]
+fn future_frames_grow_from_the_existing_damage() {
+    let (img, mask) = samples::weather(&samples::stucco(192, 192, 3), Weathering::Rust, 0.1, 11);
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (0, 2);
+    let r = weather::weather(&img, &p, Overrides::default(), 2, &|_| {}).unwrap();
+    let last = &r.frames.last().unwrap().image;
+    let d = colour_distance(last, &img).unwrap();
+    let changed: Vec<bool> = d.iter().map(|&v| v > 0.1).collect();
+    let share = changed.iter().filter(|&&c| c).count() as f32 / d.len() as f32;
+    assert!(share >= 0.05, "only {:.1}% of the pixels age from t = 1 to t = 2", 100.0 * share);
+    let near = mask.dilate(8);
+    let from_front = changed.iter().zip(near.bits()).filter(|(c, n)| **c && **n).count() as f32 / changed.iter().filter(|&&c| c).count() as f32;
+    assert!(from_front >= 0.6, "only {:.0}% of the new weathering touches the old", 100.0 * from_front);
+    // The new damage is rust, not a darkening: its hue is the rust's.
+    let rusty = |p: &[f32]| p[0] > p[2] + 0.15;
+    let new_rust = last.data().chunks_exact(3).zip(&changed).zip(mask.bits()).filter(|((p, c), m)| **c && !**m && rusty(p)).count();
+    let new_total = changed.iter().zip(mask.bits()).filter(|(c, m)| **c && !**m).count().max(1);
+    assert!(new_rust as f32 >= 0.5 * new_total as f32, "{new_rust} of {new_total} newly changed pixels look like rust");
+}
+
+#[test]
+fn boards_are_stripes_and_their_grooves_do_not_age() {
+    let img = samples::planks(256, 256, 3);
+    match tiles::periods(&img) {
+        Some(tiles::Periodicity::Stripes(v)) => {
+            assert!(v[0].abs() < 1.0 && (v[1].abs() - samples::PLANK_PERIOD as f32).abs() < 1.0, "period {v:?}")
+        }
+        other => panic!("planks: {other:?}"),
+    }
+    // The age map of clean planks: the grooves (every 26th row) are not
+    // older than the boards.
+    let age = age_map(&img, &AgeParams::default()).unwrap();
+    let groove = |y: usize| y % samples::PLANK_PERIOD < 2;
+    let mean = |pick: &dyn Fn(usize) -> bool| {
+        let rows: Vec<usize> = (8..248).filter(|&y| pick(y)).collect();
+        rows.iter().map(|&y| (8..248).map(|x| age.map.at(x, y, 0)).sum::<f32>()).sum::<f32>() / (rows.len() * 240) as f32
+    };
+    let (g, b) = (mean(&groove), mean(&|y| !groove(y)));
+    assert!(g <= b + 0.1, "grooves age {g:.3}, boards {b:.3}");
+}
+
+#[test]
+fn the_weathered_cut_adapts_to_the_damage_and_respects_its_cap() {
+    // The cut follows the damage: a 5% crack network, then 37% peeling.
+    // (A clean texture is still judged about 30% weathered: the age map's
+    // rarest patches are always rare relative to the rest. Not this
+    // method's input, but a known weakness.)
+    let clean = samples::stucco(192, 192, 3);
+    let judged = |img: &Image| {
+        let a = age_map(img, &AgeParams::default()).unwrap();
+        intact(img, &a.map, None, &IntactParams::default(), 1).unwrap().weathered_fraction
+    };
+    let cracks = judged(&samples::weather(&clean, Weathering::CrackNetwork, 0.0, 11).0);
+    let (img, _) = samples::weather(&clean, Weathering::Peel, 0.32, 11);
+    let peel = judged(&img);
+    assert!(cracks <= 0.25, "a 5% crack network judged {:.0}% weathered", 100.0 * cracks);
+    assert!((0.3..=0.6).contains(&peel) && peel > cracks + 0.1, "37% peel judged {:.0}% weathered", 100.0 * peel);
+    let a = age_map(&img, &AgeParams::default()).unwrap();
+    let capped = IntactParams { weathered_max: 0.15, ..IntactParams::default() };
+    let r = intact(&img, &a.map, None, &capped, 1).unwrap();
+    assert!(r.weathered_fraction <= 0.16, "the cap 15% gave {:.0}%", 100.0 * r.weathered_fraction);
 }

@@ -229,31 +229,6 @@ pub fn ks_distance_sorted(a: &[f32], b: &[f32]) -> f32 {
     worst
 }
 
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn auc_is_one_for_separated_scores_and_half_for_ties() {
-        assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[false, false, true, true]), 1.0);
-        assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[true, true, false, false]), 0.0);
-        assert_eq!(roc_auc(&[0.5; 4], &[true, false, true, false]), 0.5);
-    }
-
-    use super::*;
-
-    #[test]
-    fn a_crop_is_coherent_and_a_foreign_image_is_not() {
-        let ex = crate::samples::cobbles(64, 64, 3);
-        let crop = ex.crop(8, 8, 40, 40).unwrap();
-        let b = bidirectional(&crop, &ex, 5, 1).unwrap();
-        assert!(b.coherence < 1e-3, "a crop's patches all exist in the exemplar: {}", b.coherence);
-        assert!(b.completeness > 0.02, "the crop misses most of the exemplar: {}", b.completeness);
-        let other = crate::samples::bricks(40, 40, 3);
-        assert!(bidirectional(&other, &ex, 5, 1).unwrap().coherence > 0.05);
-        let own = self_similarity(&ex, 5, 1).unwrap();
-        assert!(own > 0.0 && own < 0.2, "{own}");
-    }
-}
-
 /// How much of an injected weathering a de-weathered image keeps (0 = none,
 /// 1 = all of it): over the weathered pixels `mask`, the excess of the
 /// distance from each pixel's patch to its nearest patch of the `clean`
@@ -291,4 +266,48 @@ pub fn weathering_residue(result: &Image, clean: &Image, weathered: &Image, mask
         return Err(Error::invalid("the weathered input does not differ from the clean texture where the mask says"));
     }
     Ok((excess(result)? / base).max(0.0) as f32)
+}
+
+/// Pacing of a sequence from its first frame to its last: the largest
+/// share of the whole change (mean absolute difference from the first
+/// frame to the last) that one step between consecutive frames brings.
+/// 1 / steps is perfectly even; 1 means everything happens in one step.
+pub fn pacing(frames: &[&Image]) -> Result<f32> {
+    if frames.len() < 2 {
+        return Err(Error::invalid("pacing needs at least two frames"));
+    }
+    let step = |a: &Image, b: &Image| -> Result<f64> {
+        if a.size() != b.size() || a.channels() != b.channels() {
+            return Err(Error::invalid("frames differ in size or channel count"));
+        }
+        Ok(a.data().iter().zip(b.data()).map(|(x, y)| (x - y).abs() as f64).sum::<f64>())
+    };
+    let steps: Vec<f64> = frames.windows(2).map(|w| step(w[0], w[1])).collect::<Result<_>>()?;
+    let total: f64 = steps.iter().sum();
+    Ok(if total > 0.0 { (steps.iter().copied().fold(0.0, f64::max) / total) as f32 } else { 0.0 })
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn auc_is_one_for_separated_scores_and_half_for_ties() {
+        assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[false, false, true, true]), 1.0);
+        assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[true, true, false, false]), 0.0);
+        assert_eq!(roc_auc(&[0.5; 4], &[true, false, true, false]), 0.5);
+    }
+
+    use super::*;
+
+    #[test]
+    fn a_crop_is_coherent_and_a_foreign_image_is_not() {
+        let ex = crate::samples::cobbles(64, 64, 3);
+        let crop = ex.crop(8, 8, 40, 40).unwrap();
+        let b = bidirectional(&crop, &ex, 5, 1).unwrap();
+        assert!(b.coherence < 1e-3, "a crop's patches all exist in the exemplar: {}", b.coherence);
+        assert!(b.completeness > 0.02, "the crop misses most of the exemplar: {}", b.completeness);
+        let other = crate::samples::bricks(40, 40, 3);
+        assert!(bidirectional(&other, &ex, 5, 1).unwrap().coherence > 0.05);
+        let own = self_similarity(&ex, 5, 1).unwrap();
+        assert!(own > 0.0 && own < 0.2, "{own}");
+    }
 }

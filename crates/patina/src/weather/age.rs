@@ -166,7 +166,13 @@ pub fn age_map(img: &Image, params: &AgeParams) -> Result<AgeMap> {
         _ => {
             let mut m = interpolate(&cell_ages, n, (pw, ph), w, h);
             m = gaussian_blur(&m, (params.smoothing * pw.max(ph) as f32).max(0.5));
-            normalise(&mut m);
+            // Coverage is an absolute share (0: a match in every region),
+            // so a clean texture stays low; the paper's K-mean is a
+            // distance and is normalised.
+            match params.prevalence {
+                Prevalence::Coverage => m.data_mut().iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0)),
+                Prevalence::KNearest => normalise(&mut m),
+            }
             m
         }
     };

@@ -12,6 +12,7 @@
 
 pub mod age;
 pub mod features;
+pub mod growth;
 pub mod intact;
 pub mod layers;
 pub mod rebuild;
@@ -22,7 +23,7 @@ pub mod transfer;
 pub use age::{age_map, AgeMap, AgeParams};
 pub use features::Features;
 pub use intact::{intact, Intact, IntactParams};
-pub use sequence::{Frame, SequenceParams};
+pub use sequence::{Frame, Growth, SequenceParams};
 
 use crate::error::{Error, Result};
 use crate::image::Image;
@@ -167,7 +168,7 @@ pub fn weather(
     };
     progress(Stage::Intact);
     let sp = &params.sequence;
-    let past = sequence::past(input, &intact_img, &age, sp, crate::rng::derive(seed, &[2]), &|k| progress(Stage::Past(k, sp.past)))?;
+    let past = sequence::past(input, &intact_img, &age, sp, &|k| progress(Stage::Past(k, sp.past)))?;
     let (cells, patch) = match age_grid {
         Some((n, (pw, ph), _)) => (n * n, pw.min(ph)),
         None => {
@@ -175,9 +176,17 @@ pub fn weather(
             (n * n, pw.min(ph))
         }
     };
-    let future = sequence::future(input, &intact_img, &age, cells, patch, sp, crate::rng::derive(seed, &[3]), &|k| {
-        progress(Stage::Future(k, sp.future))
-    })?;
+    let future_progress = |k| progress(Stage::Future(k, sp.future));
+    let future = match sp.growth {
+        Growth::Front => {
+            let cut = match weathered {
+                Some((cut, _)) => cut,
+                None => intact::weathered_cut(&age, params.intact.weathered_max).0,
+            };
+            growth::future(input, &intact_img, &age, cut, sp, crate::rng::derive(seed, &[3]), &future_progress)?
+        }
+        Growth::Patches => sequence::future(input, &intact_img, &age, cells, patch, sp, crate::rng::derive(seed, &[3]), &future_progress)?,
+    };
     let mut frames = vec![Frame { t: 0.0, image: intact_img.clone() }];
     frames.extend(past);
     frames.push(Frame { t: 1.0, image: input.clone() });

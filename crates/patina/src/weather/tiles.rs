@@ -91,7 +91,31 @@ pub fn periods(img: &Image) -> Option<Periodicity> {
     }
     let f = Features::new(img, true).ok()?;
     let stacked = f.stacked();
-    periods_of(&stacked, &f.weights(1.0, 4.0)).or_else(|| axis_stripes(&f.appearance))
+    match periods_of(&stacked, &f.weights(1.0, 4.0)) {
+        Some(Periodicity::Grid(l)) if repeats(&f.appearance, &[l.a, l.b]) => Some(Periodicity::Grid(l)),
+        Some(Periodicity::Stripes(v)) if repeats(&f.appearance, &[v]) => Some(Periodicity::Stripes(v)),
+        _ => axis_stripes(&f.appearance),
+    }
+}
+
+/// Whether the image is explained by its median repeat over `vectors`:
+/// the mean distance of its pixels to that median is below half their
+/// mean distance to the image's mean. A few chance matches in a
+/// stochastic texture (grain that lines up) make a lattice that fails this.
+fn repeats(appearance: &Image, vectors: &[[f32; 2]]) -> bool {
+    let median = median_translates(appearance, vectors, None);
+    let n = appearance.channels();
+    let count = (appearance.width() * appearance.height()) as f64;
+    let mut mean = vec![0f64; n];
+    for p in appearance.data().chunks_exact(n) {
+        mean.iter_mut().zip(p).for_each(|(m, v)| *m += *v as f64 / count);
+    }
+    let (mut residual, mut spread) = (0f64, 0f64);
+    for (p, q) in appearance.data().chunks_exact(n).zip(median.data().chunks_exact(n)) {
+        residual += p.iter().zip(q).map(|(a, b)| ((a - b) as f64).powi(2)).sum::<f64>().sqrt();
+        spread += p.iter().zip(&mean).map(|(a, m)| (*a as f64 - m).powi(2)).sum::<f64>().sqrt();
+    }
+    residual < 0.5 * spread
 }
 
 /// Boards, siding and grooves seen square-on, whose tone changes from
@@ -106,11 +130,11 @@ fn axis_stripes(appearance: &Image) -> Option<Periodicity> {
     let (w, h) = appearance.size();
     let mut rows = vec![0f32; h];
     let mut cols = vec![0f32; w];
-    for y in 1..h {
-        for x in 1..w {
+    for (y, row) in rows.iter_mut().enumerate().skip(1) {
+        for (x, col) in cols.iter_mut().enumerate().skip(1) {
             let l = appearance.at(x, y, 0);
-            rows[y] += (l - appearance.at(x, y - 1, 0)).abs() / w as f32;
-            cols[x] += (l - appearance.at(x - 1, y, 0)).abs() / h as f32;
+            *row += (l - appearance.at(x, y - 1, 0)).abs() / w as f32;
+            *col += (l - appearance.at(x - 1, y, 0)).abs() / h as f32;
         }
     }
     match (profile_period(&rows[1..]), profile_period(&cols[1..])) {
