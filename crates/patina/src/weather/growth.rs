@@ -15,18 +15,20 @@
 //!    [`GROWTH_RATE`] of itself per unit of t. The evolved age is the
 //!    input's age where it is higher, else the typical weathered age,
 //!    ramped over a few pixels behind the front.
-//! 3. All the damage new since t = 1 is filled ([`Synthesis::fill`]) from
-//!    weathered input material only (the pixels above the age cut), guided
-//!    by age (source: the input's age, target: the evolved age), so new
-//!    damage is made of the input's own damage and continues it across the
-//!    front. The frame takes from that fill only the band the front crossed
-//!    since the previous frame; every other pixel keeps the previous frame
-//!    exactly. (Guided re-synthesis of the whole frame
+//! 3. The band the front crossed since the previous frame is filled
+//!    ([`Synthesis::fill`]) from weathered input material only (the pixels
+//!    above the age cut), guided by age (source: the input's age, target:
+//!    the evolved age), so new damage is made of the input's own damage and
+//!    continues it across the front; the fill is then rebuilt from whole
+//!    weathered patches (its vote dulls large holes drawn from a small
+//!    source set) and taken whole. Every other pixel keeps the previous
+//!    frame exactly. (Guided re-synthesis of the whole frame
 //!    started from the previous one barely changed anything on the photos
 //!    of ../shared/data: the previous frame's clean content out-voted the
 //!    age guide.)
 
-use super::sequence::{settle, Frame, SequenceParams};
+use super::rebuild::{rebuild, Engine};
+use super::sequence::{Frame, SequenceParams};
 use crate::error::{Error, Result};
 use crate::image::filter::gaussian_blur;
 use crate::image::{Image, Mask};
@@ -37,9 +39,9 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 /// Share of the still-clean surface that weathers per unit of t.
-pub const GROWTH_RATE: f32 = 0.35;
+pub const GROWTH_RATE: f32 = 0.2;
 /// Nucleation sites per 64 x 64 px of clean surface.
-pub const NUCLEATION_DENSITY: f32 = 0.5;
+pub const NUCLEATION_DENSITY: f32 = 0.25;
 /// Width, in pixels of arrival distance, of the ramp behind the front.
 const RAMP: f32 = 3.0;
 /// Weight of the age guide channel against the appearance features.
@@ -54,10 +56,10 @@ pub fn arrival_times(age: &Image, weathered: &Mask, seed: u64) -> Vec<f32> {
     let speed: Vec<f32> = (0..w * h)
         .map(|i| {
             let (x, y) = ((i % w) as f32, (i / w) as f32);
-            let n = fractal_noise(noise_seed, x, y, 12.0, 4);
-            // Within a factor of 4 everywhere: each frame's new damage is a
-            // band several pixels wide, never a 1 px contour.
-            0.6 + 0.8 * n + age.data()[i]
+            let n = fractal_noise(noise_seed, x, y, 10.0, 4);
+            // Ragged fronts (a noise over a factor of about 5) that still
+            // advance a few pixels per frame everywhere.
+            0.3 + 1.6 * n * n + age.data()[i]
         })
         .collect();
     let mut time = vec![f32::INFINITY; w * h];
@@ -73,7 +75,7 @@ pub fn arrival_times(age: &Image, weathered: &Mask, seed: u64) -> Vec<f32> {
     // age (slightly aged spots start first), each starting a little late.
     let clean = (w * h) - weathered.count();
     let sites = ((clean as f32 / 4096.0) * NUCLEATION_DENSITY).round() as usize;
-    let weights: Vec<f32> = (0..w * h).map(|i| if weathered.bits()[i] { 0.0 } else { 0.05 + age.data()[i] }).collect();
+    let weights: Vec<f32> = (0..w * h).map(|i| if weathered.bits()[i] { 0.0 } else { age.data()[i] * age.data()[i] }).collect();
     let total: f32 = weights.iter().sum();
     if total > 0.0 {
         for _ in 0..sites {
@@ -116,7 +118,6 @@ pub fn arrival_times(age: &Image, weathered: &Mask, seed: u64) -> Vec<f32> {
 /// Frames for t > 1 grown by front propagation (see the module docs).
 pub fn future(
     input: &Image,
-    intact: &Image,
     age: &Image,
     cut: f32,
     params: &SequenceParams,
@@ -124,8 +125,8 @@ pub fn future(
     progress: &dyn Fn(usize),
 ) -> Result<Vec<Frame>> {
     let (w, h) = input.size();
-    if age.size() != input.size() || intact.size() != input.size() {
-        return Err(Error::invalid("input, intact texture and age map must have one size"));
+    if age.size() != input.size() {
+        return Err(Error::invalid("the input and its age map must have one size"));
     }
     if params.future_span.is_nan() || params.future_span <= 0.0 {
         return Err(Error::invalid("future frames need a positive span"));
@@ -180,22 +181,25 @@ pub fn future(
         let current = if moved.count() == 0 {
             previous.clone()
         } else {
-            // Fill all the damage new since t = 1 at once (a band filled on
-            // its own copies the edges of the sources into both of its
-            // borders: contour lines), then take only this frame's band
-            // from it; the older bands keep the previous frame.
-            let new_damage = Mask::from_fn(w, h, |x, y| reached.get(x, y) && !weathered.get(x, y));
+            // Fill this frame's band, in the previous frame.
             let target_guide = evolved.map(|v| v * AGE_GUIDE);
-            let op = OptimizeParams { patch, ..OptimizeParams::default() };
+            // A rough fill is enough: the rebuild below makes it real material.
+            let op = OptimizeParams { patch, levels: Some(2), search_vote_iters: 3, ..OptimizeParams::default() };
             let filled = Synthesis::new(input)
-                .fill(input, &new_damage)
+                .fill(&previous, &moved)
                 .source_mask(&sources)
                 .guides(&source_guide, &target_guide, params.rebuild.guide_weight)
-                .seed(rng::derive(seed, &[0xf2]))
+                .seed(rng::derive(seed, &[0xf2, k as u64]))
                 .optimize(&op)?
                 .image;
-            let template = blend_where(&previous, &filled, &gaussian_blur(&moved.to_image(), 0.7));
-            settle(&template, &template, &previous, intact)?
+            // The fill's vote dulls large holes drawn from a small source
+            // set: rebuild it from whole weathered patches, guided by it.
+            let filled = rebuild(input, &filled, Some(&sources), Engine::Optimize, &params.rebuild, rng::derive(seed, &[0xf3, k as u64]))?;
+            // Taken whole: new damage need not lie farther from the intact
+            // colour than the material it replaces (grey bare stone under
+            // yellow lichen), and keeping only the pixels that do left
+            // just the fill's rims: contour lines.
+            blend_where(&previous, &filled, &gaussian_blur(&moved.to_image(), 0.7))
         };
         previous_age = evolved;
         previous = current;
