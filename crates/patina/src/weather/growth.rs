@@ -30,7 +30,6 @@
 use super::rebuild::{rebuild, Engine};
 use super::sequence::{Frame, SequenceParams};
 use crate::error::{Error, Result};
-use crate::image::filter::gaussian_blur;
 use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};
 use crate::samples::fractal_noise;
@@ -173,9 +172,9 @@ pub fn future(
             let ramp = ((front - arrival[i]) / RAMP).clamp(0.0, 1.0);
             p[0] = age.data()[i].max(typical * ramp).max(previous_age.data()[i]);
         });
-        // Newly reached pixels (the front passed half-way up their ramp):
+        // Newly reached pixels (the front passed them):
         // filled from weathered material.
-        let reached_now = Mask::from_fn(w, h, |x, y| reached.get(x, y) || front - arrival[y * w + x] >= 0.5 * RAMP);
+        let reached_now = Mask::from_fn(w, h, |x, y| reached.get(x, y) || front >= arrival[y * w + x]);
         let moved = Mask::from_fn(w, h, |x, y| reached_now.get(x, y) && !reached.get(x, y));
         reached = reached_now;
         let current = if moved.count() == 0 {
@@ -199,7 +198,7 @@ pub fn future(
             // colour than the material it replaces (grey bare stone under
             // yellow lichen), and keeping only the pixels that do left
             // just the fill's rims: contour lines.
-            blend_where(&previous, &filled, &gaussian_blur(&moved.to_image(), 0.7))
+            blend_where(&previous, &filled, &moved.to_image())
         };
         previous_age = evolved;
         previous = current;
@@ -209,10 +208,12 @@ pub fn future(
     Ok(frames)
 }
 
-/// `a` blended towards `b` by `weight` (one channel, clamped to [0, 1] after doubling).
+/// `a` blended towards `b` by `weight` (one channel in [0, 1]). The fill
+/// already joins its hole's border, so the band is taken with a hard edge:
+/// a feathered one would change the pixels around it a second time.
 fn blend_where(a: &Image, b: &Image, weight: &Image) -> Image {
     Image::from_fn(a.width(), a.height(), a.channels(), |x, y, p| {
-        let wt = (2.0 * weight.at(x, y, 0)).min(1.0);
+        let wt = weight.at(x, y, 0);
         for (c, v) in p.iter_mut().enumerate() {
             *v = a.at(x, y, c) * (1.0 - wt) + b.at(x, y, c) * wt;
         }
