@@ -149,28 +149,6 @@ pub fn allowed_sources(age: &Image, discard: Option<f32>, weathered_max: f32, la
     Mask::from_fn(w, age.height(), |x, y| age.at(x, y, 0) < cuts[label(y * w + x)])
 }
 
-/// Whether the median tile explains the allowed (intact) pixels: their
-/// mean colour distance to it is below half their mean distance to the
-/// image's mean colour. A lattice found on a surface seen in perspective
-/// (a roof) repeats only roughly; its median tile is a blur and the
-/// texture is better treated as stochastic.
-fn explains(img: &Image, median: &Image, allowed: &Mask) -> bool {
-    let n = img.channels().min(3);
-    let count = allowed.count().max(1) as f64;
-    let mut mean = vec![0f64; n];
-    for (p, _) in img.data().chunks_exact(img.channels()).zip(allowed.bits()).filter(|(_, &a)| a) {
-        mean.iter_mut().zip(p).for_each(|(m, v)| *m += *v as f64 / count);
-    }
-    let (mut residual, mut spread) = (0f64, 0f64);
-    for ((p, q), _) in
-        img.data().chunks_exact(img.channels()).zip(median.data().chunks_exact(img.channels())).zip(allowed.bits()).filter(|(_, &a)| a)
-    {
-        residual += (0..n).map(|c| ((p[c] - q[c]) as f64).powi(2)).sum::<f64>().sqrt();
-        spread += (0..n).map(|c| (p[c] as f64 - mean[c]).powi(2)).sum::<f64>().sqrt();
-    }
-    residual < 0.5 * spread
-}
-
 /// The intact texture of `img` given its age map.
 pub fn intact(img: &Image, age: &Image, layers: Option<&Layers>, params: &IntactParams, seed: u64) -> Result<Intact> {
     if age.size() != img.size() || age.channels() != 1 {
@@ -200,7 +178,10 @@ pub fn intact(img: &Image, age: &Image, layers: Option<&Layers>, params: &Intact
     let mut lattice = if params.detect_tiles { tiles::detect(img) } else { None };
     let median = lattice.map(|l| tiles::median_tile(img, &l, Some(&allowed)));
     if let Some(m) = &median {
-        if !explains(img, m, &allowed) {
+        // A lattice found on a surface seen in perspective (a roof) repeats
+        // only roughly; its median tile is a blur and the texture is better
+        // treated as stochastic.
+        if !tiles::explained_by(img, m, Some(&allowed)) {
             lattice = None;
         }
     }

@@ -98,22 +98,29 @@ pub fn periods(img: &Image) -> Option<Periodicity> {
     }
 }
 
-/// Whether the image is explained by its median repeat over `vectors`:
-/// the mean distance of its pixels to that median is below half their
-/// mean distance to the image's mean. A few chance matches in a
-/// stochastic texture (grain that lines up) make a lattice that fails this.
+/// Whether the image is explained by its median repeat over `vectors`
+/// ([`explained_by`]). A few chance matches in a stochastic texture (grain
+/// that lines up) make a lattice that fails this.
 fn repeats(appearance: &Image, vectors: &[[f32; 2]]) -> bool {
-    let median = median_translates(appearance, vectors, None);
-    let n = appearance.channels();
-    let count = (appearance.width() * appearance.height()) as f64;
+    explained_by(appearance, &median_translates(appearance, vectors, None), None)
+}
+
+/// Whether `template` explains `img` over the `allowed` pixels (all when
+/// `None`): their mean colour distance to it (first three channels) is
+/// below half their mean distance to their own mean colour.
+pub fn explained_by(img: &Image, template: &Image, allowed: Option<&Mask>) -> bool {
+    let (c, n) = (img.channels(), img.channels().min(3));
+    let pick = |i: usize| allowed.is_none_or(|m| m.bits()[i]);
+    let pixels = || img.data().chunks_exact(c).zip(template.data().chunks_exact(c)).enumerate().filter(|(i, _)| pick(*i)).map(|(_, pq)| pq);
+    let count = pixels().count().max(1) as f64;
     let mut mean = vec![0f64; n];
-    for p in appearance.data().chunks_exact(n) {
+    for (p, _) in pixels() {
         mean.iter_mut().zip(p).for_each(|(m, v)| *m += *v as f64 / count);
     }
     let (mut residual, mut spread) = (0f64, 0f64);
-    for (p, q) in appearance.data().chunks_exact(n).zip(median.data().chunks_exact(n)) {
-        residual += p.iter().zip(q).map(|(a, b)| ((a - b) as f64).powi(2)).sum::<f64>().sqrt();
-        spread += p.iter().zip(&mean).map(|(a, m)| (*a as f64 - m).powi(2)).sum::<f64>().sqrt();
+    for (p, q) in pixels() {
+        residual += (0..n).map(|k| ((p[k] - q[k]) as f64).powi(2)).sum::<f64>().sqrt();
+        spread += (0..n).map(|k| (p[k] as f64 - mean[k]).powi(2)).sum::<f64>().sqrt();
     }
     residual < 0.5 * spread
 }
