@@ -7,7 +7,7 @@ use patina::image::io::{save_gif, save_png, BitDepth};
 use patina::image::sequence::{load_sequence, Sequence};
 use patina::image::Image;
 use patina::synth::QuiltParams;
-use patina::ttf::{self, RateMap, TtfParams};
+use patina::ttf::{self, RateMap, SequenceLighting, TtfParams};
 use patina::{Error, Result};
 use serde_json::json;
 use std::ops::Range;
@@ -38,7 +38,7 @@ pub struct Args {
     /// Block size WxH; may be elongated, e.g. 320x64 for growing grass [default: a quarter of the input's smaller side, 8..64]
     #[arg(long, value_parser = parse_size)]
     pub block: Option<(usize, usize)>,
-    /// Overlap between neighbouring blocks, in pixels [default: a sixth of the block, at least 2]
+    /// Overlap between neighbouring blocks, in pixels [default: a third of the block, at least 2]
     #[arg(long, value_parser = |s: &str| crate::flags::count(s, 1, 512))]
     pub overlap: Option<usize>,
     /// Candidate blocks: those within (1 + tolerance) x the best cost.
@@ -47,18 +47,18 @@ pub struct Args {
     /// Soften each seam over this many pixels on either side (0 = the paper's hard cut).
     #[arg(long, default_value_t = 2, value_parser = |s: &str| crate::flags::count(s, 0, 64))]
     pub feather: usize,
-    /// Time jitter E (eqs. 6-7): each block's clock drifts randomly by at most E frames, so copies of one block do not change in lockstep; 0 = off.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 2000.0))]
-    pub jitter: f32,
-    /// Divide out the input's low-frequency lighting (e.g. a flash hot spot) before synthesis (section 5.3).
+    /// Time jitter E (eqs. 6-7): each block's clock drifts randomly by at most E frames, so copies of one block do not change in lockstep (of 8 random drifts per block, the one that best matches its neighbours at the seams is kept); 0 = off [default: a twelfth of the frames]
+    #[arg(long, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 2000.0))]
+    pub jitter: Option<f32>,
+    /// Lighting (section 5.3): keep = quilt the frames as they are; flat = divide out the illumination of the frames' mean (a vignette, a flash hot-spot), quilt the detail and light the output evenly; stretch = the same, then put the input's lighting back stretched to the output; auto = flat when the input's large-scale variation is above 0.08 and its shorter side at least 96 px, else keep.
+    #[arg(long, value_enum, default_value_t = LightingArg::Auto)]
+    pub lighting: LightingArg,
+    /// Join blocks with the paper's cut only: no gradient-domain blending of the seams.
     #[arg(long)]
-    pub flatten: bool,
-    /// With --flatten: multiply the lighting back into the output, stretched to its size.
-    #[arg(long, requires = "flatten")]
-    pub keep_gradient: bool,
-    /// With --flatten: the low-pass Gaussian's sigma as a fraction of the input's larger side.
-    #[arg(long, default_value_t = 0.125, requires = "flatten", allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1.0))]
-    pub flatten_sigma: f32,
+    pub no_blend: bool,
+    /// Reuse penalty: a block's cost grows by this factor for every block already taken from around the same input spot (0 = off, the paper).
+    #[arg(long, default_value_t = 1.5, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    pub reuse: f32,
     /// Sum the block cost over frames as they are (the paper's eq. 3). By default each frame is weighted by the inverse of its fine-detail contrast, so smooth early frames get seams as clean as busy late ones.
     #[arg(long)]
     pub no_balance: bool,
@@ -89,6 +89,26 @@ pub struct Args {
     /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
     #[arg(long)]
     pub overwrite: bool,
+}
+
+/// `--lighting` choices.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum LightingArg {
+    Auto,
+    Keep,
+    Flat,
+    Stretch,
+}
+
+impl From<LightingArg> for SequenceLighting {
+    fn from(l: LightingArg) -> Self {
+        match l {
+            LightingArg::Auto => SequenceLighting::Auto,
+            LightingArg::Keep => SequenceLighting::Keep,
+            LightingArg::Flat => SequenceLighting::Flat,
+            LightingArg::Stretch => SequenceLighting::Stretch,
+        }
+    }
 }
 
 fn parse_range(s: &str) -> std::result::Result<Range<usize>, String> {
@@ -177,12 +197,12 @@ pub fn run(args: Args) -> Result<()> {
             overlap: args.overlap.map(|o| (o, o)),
             tolerance: args.tolerance,
             feather: args.feather,
+            blend: !args.no_blend,
+            reuse: args.reuse,
             ..TtfParams::default().quilt
         },
         jitter: args.jitter,
-        flatten: args.flatten,
-        keep_gradient: args.keep_gradient,
-        flatten_sigma: args.flatten_sigma,
+        lighting: args.lighting.into(),
         balance: !args.no_balance,
     };
     let result = with_bar("ttf", |report| ttf::synthesize(&frames, size, &params, rate.as_ref(), args.seed, Some(report)))?;
@@ -213,6 +233,8 @@ pub fn run(args: Args) -> Result<()> {
     p["block_used"] = json!([result.plan.block.0, result.plan.block.1]);
     p["overlap_used"] = json!([result.plan.overlap.0, result.plan.overlap.1]);
     p["input_frames"] = json!(frames.len());
+    p["jitter_used"] = json!(params.jitter_frames(frames.len()));
+    p["lighting_used"] = json!(result.lighting.as_ref().map_or("keep", |l| l.relight));
     p["frames_range"] = json!(args.frames.as_ref().map(|r| [r.start, r.end]));
     p["step"] = json!(args.step);
     p["rate"] = json!(match (&args.rate_map, args.rate_light, &args.rate_curvature) {
@@ -226,6 +248,9 @@ pub fn run(args: Args) -> Result<()> {
         manifest.metrics.insert("svd_rank".into(), json!(c.rank));
         manifest.metrics.insert("svd_relative_rms".into(), json!(c.relative_rms));
         manifest.metrics.insert("singular_values".into(), json!(c.singular_values.iter().take(32).collect::<Vec<_>>()));
+    }
+    if let Some(l) = &result.lighting {
+        manifest.metrics.insert("lighting".into(), json!(l));
     }
     manifest.metrics.insert("flicker_input".into(), json!(patina::metrics::flicker(&frames)));
     manifest.metrics.insert("flicker_output".into(), json!(patina::metrics::flicker(&result.frames)));

@@ -93,7 +93,11 @@ fn main() {
         let o = cmd.output().expect("child");
         print!("{}", String::from_utf8_lossy(&o.stdout));
         if !o.status.success() {
-            println!("{}\tfailed: {}", p.display(), String::from_utf8_lossy(&o.stderr).lines().find(|l| l.contains("panicked") || l.contains("Err")).unwrap_or(""));
+            println!(
+                "{}\tfailed: {}",
+                p.display(),
+                String::from_utf8_lossy(&o.stderr).lines().find(|l| l.contains("panicked") || l.contains("Err")).unwrap_or("")
+            );
         }
     }
 }

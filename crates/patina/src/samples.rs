@@ -418,6 +418,24 @@ pub fn rusting_timelapse(width: usize, height: usize, frames: usize, seed: u64) 
         .collect()
 }
 
+/// `frames` under a fixed vignette: each pixel darkened by `strength` x
+/// its squared distance from the centre over the corner's (the corners at
+/// 1 - strength), as a lens or a flash leaves on a capture.
+pub fn vignette(frames: &[Image], strength: f32) -> Vec<Image> {
+    frames
+        .iter()
+        .map(|f| {
+            let (w, h) = (f.width() as f32, f.height() as f32);
+            let (cx, cy, r2) = (w / 2.0, h / 2.0, (w * w + h * h) / 4.0);
+            Image::from_fn(f.width(), f.height(), f.channels(), |x, y, p| {
+                let d2 = ((x as f32 + 0.5 - cx).powi(2) + (y as f32 + 0.5 - cy).powi(2)) / r2;
+                let k = 1.0 - strength * d2;
+                p.iter_mut().zip(f.pixel(x, y)).for_each(|(o, v)| *o = v * k);
+            })
+        })
+        .collect()
+}
+
 /// Named samples, for the CLI.
 pub const NAMES: [&str; 7] = ["bricks", "cobbles", "blotches", "tiles", "gravel", "planks", "stucco"];
 

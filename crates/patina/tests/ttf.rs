@@ -2,10 +2,16 @@
 //! make: rust spots appearing and growing at random times on brushed steel.
 
 use patina::image::Image;
-use patina::metrics::flicker;
+use patina::metrics::{flicker, grid_peak, nonstationarity, repeated_share};
 use patina::samples::rusting_timelapse;
 use patina::synth::QuiltParams;
 use patina::ttf::{synthesize, RateMap, Ttf, TtfParams};
+
+/// The paper's method with hard cuts: every output pixel is exactly one
+/// input pixel.
+fn hard() -> TtfParams {
+    TtfParams { quilt: QuiltParams { feather: 0, ..TtfParams::paper().quilt }, ..TtfParams::paper() }
+}
 
 fn run(frames: &[Image], size: (usize, usize), params: &TtfParams, rate: Option<&RateMap>, seed: u64) -> Ttf {
     synthesize(frames, size, params, rate, seed, None).unwrap()
@@ -14,9 +20,7 @@ fn run(frames: &[Image], size: (usize, usize), params: &TtfParams, rate: Option<
 #[test]
 fn whole_time_columns_are_copied_along_one_seam_without_flicker() {
     let input = rusting_timelapse(64, 64, 60, 3);
-    // A hard cut (no feathering) so every pixel is exactly one source pixel.
-    let hard = TtfParams { quilt: QuiltParams { feather: 0, ..TtfParams::default().quilt }, ..TtfParams::default() };
-    let out = run(&input, (128, 112), &hard, None, 9);
+    let out = run(&input, (128, 112), &hard(), None, 9);
     assert_eq!(out.frames.len(), 60);
     assert!(out.compression.as_ref().unwrap().relative_rms < 0.05);
     // Every output pixel of every frame is its exemplar pixel at the same
@@ -72,7 +76,7 @@ fn jitter_shows_one_source_blocks_events_at_different_times_within_e() {
     let tex = patina::samples::blotches(40, 40, 5);
     let input: Vec<Image> = (0..50).map(|t| if t < 25 { tex.clone() } else { tex.map(|v| v + 0.5) }).collect();
     let params = |jitter: f32| TtfParams {
-        jitter,
+        jitter: Some(jitter),
         quilt: QuiltParams { block: Some((40, 40)), overlap: Some((8, 8)), ..TtfParams::default().quilt },
         ..TtfParams::default()
     };
@@ -110,8 +114,7 @@ fn a_rate_of_0_freezes_and_a_rate_of_2_runs_twice_as_fast() {
     let (w, h) = (96, 80);
     let paint = Image::from_fn(w, h, 1, |x, _, p| p[0] = if x < w / 2 { 0.0 } else { 1.0 });
     let rate = RateMap::from_image(&paint, 2.0).unwrap();
-    let hard = TtfParams { quilt: QuiltParams { feather: 0, ..TtfParams::default().quilt }, ..TtfParams::default() };
-    let out = run(&input, (w, h), &hard, Some(&rate), 8);
+    let out = run(&input, (w, h), &hard(), Some(&rate), 8);
     assert_eq!(out.frames.len(), 31, "the fastest pixel reaches frame 60 at output frame 30");
     let from = out.plan.source_positions();
     for (t, frame) in out.frames.iter().enumerate() {
@@ -128,12 +131,11 @@ fn a_rate_of_0_freezes_and_a_rate_of_2_runs_twice_as_fast() {
 }
 
 #[test]
-fn elongated_blocks_flattening_and_thread_count_independence() {
+fn elongated_blocks_lighting_and_thread_count_independence() {
     let input = rusting_timelapse(64, 40, 20, 7);
     let params = TtfParams {
-        jitter: 2.0,
-        flatten: true,
-        keep_gradient: true,
+        jitter: Some(2.0),
+        lighting: patina::ttf::SequenceLighting::Stretch,
         quilt: QuiltParams { block: Some((48, 12)), overlap: Some((6, 3)), ..TtfParams::default().quilt },
         ..TtfParams::default()
     };
@@ -157,6 +159,37 @@ fn bad_sequences_are_refused_by_name() {
     let too_big = TtfParams { quilt: QuiltParams { block: Some((40, 8)), ..QuiltParams::default() }, ..TtfParams::default() };
     let err = synthesize(&input, (64, 64), &too_big, None, 0, None).unwrap_err();
     assert!(err.to_string().contains("block"), "{err}");
-    let negative = TtfParams { jitter: -1.0, ..TtfParams::default() };
+    let negative = TtfParams { jitter: Some(-1.0), ..TtfParams::default() };
     assert!(synthesize(&input, (64, 64), &negative, None, 0, None).is_err());
+}
+
+#[test]
+fn a_vignetted_sequence_is_enlarged_without_grid_patchwork_or_added_flicker() {
+    // Rust spots appearing at random times on brushed steel, under a
+    // vignette that darkens the corners to 40%.
+    let clean = rusting_timelapse(96, 96, 24, 5);
+    let input = patina::samples::vignette(&clean, 0.6);
+    // Evenly lit, the lighting is left alone.
+    assert!(run(&clean, (128, 128), &TtfParams::default(), None, 3).lighting.is_none());
+    let out = run(&input, (192, 192), &TtfParams::default(), None, 3);
+    let paper = run(&input, (192, 192), &TtfParams::paper(), None, 3);
+    let lighting = out.lighting.as_ref().expect("the vignette is separated by default");
+    assert_eq!(lighting.relight, "flat");
+    assert!(paper.lighting.is_none());
+    for t in [12, 23] {
+        // No block grid: the gradient profile's periodic peak stays near the input's.
+        let (g, g0) = (grid_peak(&out.frames[t]), grid_peak(&input[t]));
+        assert!(g <= 1.5 * g0, "frame {t}: grid peak {g} vs the input's {g0}");
+        // The vignette is not scattered over the output as bright and dark blocks.
+        let (ns, ns_paper) = (nonstationarity(&out.frames[t]), nonstationarity(&paper.frames[t]));
+        assert!(ns < 0.5 * ns_paper, "frame {t}: large-scale variation {ns}, the paper's method {ns_paper}");
+    }
+    // Seams blended at key frames add no flicker of their own.
+    let (fi, fo) = (flicker(&input), flicker(&out.frames));
+    assert!(fo <= 1.2 * fi, "frame-to-frame change: input {fi}, output {fo}");
+    // Jittered, blended copies of a block are not pixel-exact repeats the
+    // way the paper's plain copies are.
+    let rep = |f: &Image| repeated_share(f, 9, 16, 1).unwrap();
+    let (r, r_paper) = (rep(&out.frames[12]), rep(&paper.frames[12]));
+    assert!(r < 0.6 * r_paper, "near-verbatim share {r}, the paper's method {r_paper}");
 }

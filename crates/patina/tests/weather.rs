@@ -259,7 +259,8 @@ fn future_frames_grow_from_the_existing_damage() {
     let share = changed.iter().filter(|&&c| c).count() as f32 / d.len() as f32;
     assert!(share >= 0.05, "only {:.1}% of the pixels age from t = 1 to t = 2", 100.0 * share);
     let near = mask.dilate(8);
-    let from_front = changed.iter().zip(near.bits()).filter(|(c, n)| **c && **n).count() as f32 / changed.iter().filter(|&&c| c).count() as f32;
+    let from_front =
+        changed.iter().zip(near.bits()).filter(|(c, n)| **c && **n).count() as f32 / changed.iter().filter(|&&c| c).count() as f32;
     assert!(from_front >= 0.6, "only {:.0}% of the new weathering touches the old", 100.0 * from_front);
     // The new damage is rust, not a darkening: its hue is the rust's.
     let rusty = |p: &[f32]| p[0] > p[2] + 0.15;

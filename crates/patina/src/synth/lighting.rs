@@ -16,6 +16,7 @@ use crate::image::color::luminance;
 use crate::image::filter::gaussian_blur;
 use crate::image::resample::{resize, Filter};
 use crate::image::Image;
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// How a synthesized output is lit.
@@ -68,12 +69,8 @@ pub fn separate(img: &Image) -> Separation {
     let mut field = gaussian_blur(&log_lum, sigma);
     let mean = field.data().iter().map(|&v| v as f64).sum::<f64>() as f32 / field.data().len().max(1) as f32;
     field.data_mut().iter_mut().for_each(|v| *v -= mean);
-    let n = img.channels();
     let mut detail = img.clone();
-    for (px, f) in detail.data_mut().chunks_exact_mut(n).zip(field.data()) {
-        let gain = (-f).exp();
-        px.iter_mut().for_each(|v| *v *= gain);
-    }
+    apply_gain(&mut detail, &field.data().iter().map(|f| (-f).exp()).collect::<Vec<_>>());
     Separation { detail, log_field: field, sigma, mean_luminance }
 }
 
@@ -83,13 +80,62 @@ fn mean(img: &Image) -> f32 {
 
 /// Re-light a synthesized detail image.
 pub fn relight(detail: &Image, sep: &Separation, how: Relight) -> Result<Image> {
-    let (w, h) = detail.size();
-    let gain: Option<Vec<f32>> = match how {
+    let mut out = detail.clone();
+    if let Some(g) = gain(detail.size(), sep, how, || mean(&luminance(detail)))? {
+        apply_gain(&mut out, &g);
+    }
+    Ok(out)
+}
+
+/// Split a sequence under one fixed light (a vignette, a flash hot-spot):
+/// the illumination is that of the frames' temporal mean (no single frame
+/// is representative while the surface changes), and every frame is
+/// divided by it. Returns the separation of the mean frame and the
+/// frames' detail layers.
+pub fn separate_sequence(frames: &[Image]) -> Result<(Separation, Vec<Image>)> {
+    let first = frames.first().ok_or_else(|| Error::invalid("the sequence has no frames"))?;
+    let mut sum = vec![0f64; first.data().len()];
+    for f in frames {
+        sum.par_iter_mut().zip(f.data().par_iter()).for_each(|(s, v)| *s += f64::from(*v));
+    }
+    let k = frames.len() as f64;
+    let mean_frame = Image::from_data(first.width(), first.height(), first.channels(), sum.iter().map(|s| (s / k) as f32).collect())?;
+    let sep = separate(&mean_frame);
+    let inverse: Vec<f32> = sep.log_field.data().iter().map(|f| (-f).exp()).collect();
+    let details = frames
+        .par_iter()
+        .map(|f| {
+            let mut d = f.clone();
+            apply_gain(&mut d, &inverse);
+            d
+        })
+        .collect();
+    Ok((sep, details))
+}
+
+/// Re-light synthesized detail frames with one gain for all of them (a flat
+/// re-lighting matches the mean luminance of all frames together to the
+/// exemplar's, so the sequence's own brightening or darkening is kept).
+pub fn relight_sequence(frames: &mut [Image], sep: &Separation, how: Relight) -> Result<()> {
+    let Some(first) = frames.first() else { return Ok(()) };
+    let size = first.size();
+    let mean_all = || frames.iter().map(|f| mean(&luminance(f))).sum::<f32>() / frames.len() as f32;
+    if let Some(g) = gain(size, sep, how, mean_all)? {
+        frames.par_iter_mut().for_each(|f| apply_gain(f, &g));
+    }
+    Ok(())
+}
+
+/// The per-pixel gain that re-lights detail of `size` as `how` says;
+/// `detail_mean` is the detail's mean luminance (for flat re-lighting).
+fn gain(size: (usize, usize), sep: &Separation, how: Relight, detail_mean: impl FnOnce() -> f32) -> Result<Option<Vec<f32>>> {
+    let (w, h) = size;
+    Ok(match how {
         Relight::Keep => None,
         // Dividing by the field leaves the geometric mean brightness, darker
         // than the exemplar's under a strong vignette: scale back to its mean.
         Relight::Flat => {
-            let m = mean(&luminance(detail));
+            let m = detail_mean();
             Some(vec![if m > 0.0 { sep.mean_luminance / m } else { 1.0 }; w * h])
         }
         Relight::Stretch => Some(resize(&sep.log_field, w, h, Filter::Linear)?.data().iter().map(|v| v.exp()).collect()),
@@ -104,15 +150,17 @@ pub fn relight(detail: &Image, sep: &Separation, how: Relight) -> Result<Image> 
             }
             Some(l.data().iter().map(|v| v / mean).collect())
         }
-    };
-    let mut out = detail.clone();
-    if let Some(g) = gain {
-        let n = out.channels();
-        for (px, k) in out.data_mut().chunks_exact_mut(n).zip(g) {
-            px.iter_mut().for_each(|v| *v *= k);
+    })
+}
+
+/// Multiply every channel of each pixel by its gain.
+fn apply_gain(img: &mut Image, gain: &[f32]) {
+    let n = img.channels();
+    img.data_mut().par_chunks_mut(n * 1024).zip(gain.par_chunks(1024)).for_each(|(px, g)| {
+        for (p, k) in px.chunks_exact_mut(n).zip(g) {
+            p.iter_mut().for_each(|v| *v *= k);
         }
-    }
-    Ok(out)
+    });
 }
 
 impl Relight<'_> {

@@ -13,10 +13,17 @@
 //!   the top-k SVD coefficients of each pixel's time series, weighted by the
 //!   singular values; `rank = 0` compares all frames instead.
 //! - Elongated blocks (section 5.3): any block width and height.
-//! - Time jitter (eqs. 6-7, [`warp`]) and rate maps (section 6, [`rate`]).
-//! - Low-frequency normalisation (section 5.3, [`flatten`]).
+//! - Time jitter (eqs. 6-7, [`warp`]), each block's warp chosen among
+//!   several to match its neighbours at the seams, and rate maps (section
+//!   6, [`rate`]).
+//! - Low-frequency normalisation (section 5.3) by the engine's
+//!   lighting-aware synthesis ([`crate::synth::lighting`]): the frames are
+//!   divided by the illumination of their temporal mean, the detail is
+//!   quilted, and the output is re-lit (flat by default). Automatic when
+//!   the input's large-scale variation is high.
+//! - Seams hidden per frame in the gradient domain ([`crate::synth::blend`]),
+//!   frame by frame from the same cut, so no seam flickers.
 
-pub mod flatten;
 pub mod rate;
 pub mod svd;
 pub mod warp;
@@ -28,11 +35,50 @@ pub use warp::TimeWarp;
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::rng;
+use crate::synth::lighting::{relight_sequence, separate_sequence, LightingReport, Relight};
 use crate::synth::{PatchMetric, Progress, QuiltParams, QuiltPlan, Synthesis};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// Every parameter of the method, with the paper's defaults.
+/// How the input's lighting is treated (section 5.3).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SequenceLighting {
+    /// `Flat` when the frames' temporal mean has a large-scale variation
+    /// ([`crate::metrics::nonstationarity`]) above [`AUTO_LIGHTING`] and
+    /// the input is at least [`AUTO_MIN_SIDE`] on its shorter side, else `Keep`.
+    #[default]
+    Auto,
+    /// Quilt the frames as they are (the lighting is copied block by block).
+    Keep,
+    /// Divide out the lighting, quilt the detail, light the output evenly.
+    Flat,
+    /// Divide out the lighting and put it back stretched to the output's size.
+    Stretch,
+}
+
+/// Large-scale variation of the temporal mean above which `Auto` lighting
+/// separates. The procedural stationary textures measure 0.01-0.06, a
+/// procedural rust sequence 0.04-0.05 and under a vignette of strength 0.4
+/// 0.07-0.11; the four real time-lapses in ../shared/data/timelapse
+/// measure 0.10-0.18 (uneven light, a specular streak on copper), and
+/// separating them removed the dark-block patchwork the clay showed.
+pub const AUTO_LIGHTING: f32 = 0.08;
+
+/// The default overlap is the block over this (the engine's is a sixth):
+/// one cut serves every frame, so it needs more room to wander around the
+/// features of all of them. On copper_patinating (256 -> 512 px) a sixth
+/// left straight 64 px block edges; a third gives irregular cuts, at 10%
+/// more time.
+const OVERLAP_SHARE: usize = 3;
+
+/// Smallest input side `Auto` lighting separates: the field's low-pass
+/// has sigma = 1/8 of the side, so below about 96 px it is the size of the
+/// features themselves (rust spots) and takes content for light.
+pub const AUTO_MIN_SIDE: usize = 96;
+
+/// Every parameter of the method, with the paper's defaults where it has
+/// them ([`TtfParams::paper`] turns every addition off).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct TtfParams {
@@ -42,17 +88,15 @@ pub struct TtfParams {
     /// When set, k is instead the smallest rank whose relative RMS
     /// reconstruction error is at most this (e.g. 0.05).
     pub max_error: Option<f64>,
-    /// Block and overlap sizes (elongated blocks allowed, section 5.3),
-    /// candidate tolerance and seams (feathered over 2 px by default).
+    /// Block and overlap sizes (elongated blocks allowed, section 5.3; the
+    /// overlap defaults to a third of the block here), candidate tolerance, seams (feathered over 2 px and blended in the
+    /// gradient domain by default) and the reuse penalty.
     pub quilt: QuiltParams,
-    /// E, the most frames a block's time may drift from the output's (eq. 7); 0 = no jitter.
-    pub jitter: f32,
-    /// Divide the sequence by its low-frequency lighting before synthesis (section 5.3).
-    pub flatten: bool,
-    /// With `flatten`: multiply the lighting back into the result.
-    pub keep_gradient: bool,
-    /// Low-pass sigma for `flatten`, as a fraction of the larger side.
-    pub flatten_sigma: f32,
+    /// E, the most frames a block's time may drift from the output's (eq.
+    /// 7); 0 = no jitter; `None` = a twelfth of the frames.
+    pub jitter: Option<f32>,
+    /// Lighting separation.
+    pub lighting: SequenceLighting,
     /// Weight each frame's share of the block cost by the inverse of its
     /// fine-detail contrast (not in the paper; see [`frame_balance`]).
     pub balance: bool,
@@ -63,16 +107,30 @@ impl Default for TtfParams {
         TtfParams {
             rank: 15,
             max_error: None,
-            // Per-frame gradient-domain blending is available (quilt.blend)
-            // but off: it changes the copied time columns, and its effect
-            // on real time-lapses is not yet measured (issue 17).
-            quilt: QuiltParams { feather: 2, blend: false, ..QuiltParams::default() },
-            jitter: 0.0,
-            flatten: false,
-            keep_gradient: false,
-            flatten_sigma: 0.125,
+            quilt: QuiltParams { feather: 2, blend: true, ..QuiltParams::default() },
+            jitter: None,
+            lighting: SequenceLighting::Auto,
             balance: true,
         }
+    }
+}
+
+impl TtfParams {
+    /// The paper's method alone: hard minimum-error cuts, no blending, no
+    /// reuse penalty, no jitter, no lighting separation, eq. (3) unweighted.
+    pub fn paper() -> Self {
+        TtfParams {
+            quilt: QuiltParams { feather: 0, blend: false, reuse: 0.0, ..QuiltParams::default() },
+            jitter: Some(0.0),
+            lighting: SequenceLighting::Keep,
+            balance: false,
+            ..TtfParams::default()
+        }
+    }
+
+    /// E in frames for a sequence of `n` frames.
+    pub fn jitter_frames(&self, n: usize) -> f32 {
+        self.jitter.unwrap_or(n.saturating_sub(1) as f32 / 12.0)
     }
 }
 
@@ -96,6 +154,8 @@ pub struct Ttf {
     pub plan: QuiltPlan,
     /// Each block's time warp (identity without jitter), in plan order.
     pub warps: Vec<TimeWarp>,
+    /// The lighting separation, when one was made.
+    pub lighting: Option<LightingReport>,
     /// `None` when every frame was compared (`rank = 0`).
     pub compression: Option<Compression>,
 }
@@ -111,14 +171,25 @@ pub fn synthesize(
     progress: Option<Progress>,
 ) -> Result<Ttf> {
     let (n, out_frames) = check_input(frames, (width, height), params, rate)?;
+    let original = frames;
     let report = |done: u64| {
         if let Some(p) = progress {
             p(done, 100);
         }
     };
-    let lighting = params.flatten.then(|| flatten::Lighting::estimate(frames, params.flatten_sigma));
-    let flat = lighting.as_ref().map(|l| l.divide(frames));
-    let frames = flat.as_deref().unwrap_or(frames);
+    let relight = match params.lighting {
+        SequenceLighting::Keep => Relight::Keep,
+        SequenceLighting::Flat => Relight::Flat,
+        SequenceLighting::Stretch => Relight::Stretch,
+        SequenceLighting::Auto
+            if frames[0].width().min(frames[0].height()) >= AUTO_MIN_SIDE && input_nonstationarity(frames)? > AUTO_LIGHTING =>
+        {
+            Relight::Flat
+        }
+        SequenceLighting::Auto => Relight::Keep,
+    };
+    let separated = if matches!(relight, Relight::Keep) { None } else { Some(separate_sequence(frames)?) };
+    let frames = separated.as_ref().map_or(frames, |(_, detail)| detail.as_slice());
     let weights = if params.balance { frame_balance(frames) } else { vec![1.0; n] };
     let (features, compression) = if params.rank == 0 && params.max_error.is_none() {
         (stack(frames, &weights)?, None)
@@ -133,45 +204,103 @@ pub fn synthesize(
     // by n only sets its scale.
     let metric = PatchMetric::ssd(vec![1.0 / n as f32; features.channels()]);
     let quilt_progress = |d: u64, t: u64| report(10 + 50 * d / t.max(1));
+    let mut quilt = params.quilt.clone();
+    if quilt.overlap.is_none() {
+        let ((bw, bh), _) = quilt.resolve(features.width(), features.height())?;
+        quilt.overlap = Some(((bw / OVERLAP_SHARE).max(2), (bh / OVERLAP_SHARE).max(2)));
+    }
     let quilted = Synthesis::new(&features)
         .size(width, height)
         .metric(metric)
         .seed(rng::derive(seed, &[1]))
         .progress(&quilt_progress)
-        .quilt(&params.quilt)?;
+        .quilt(&quilt)?;
     drop(features);
     let plan = quilted.plan;
-    let warps: Vec<TimeWarp> =
-        (0..plan.placements.len()).map(|i| TimeWarp::jittered(n, params.jitter, rng::derive(seed, &[2, i as u64]))).collect();
+    let warps = warp::seam_matched(&plan, frames, params.jitter_frames(n), rng::derive(seed, &[2]));
+    let render = |t: usize| {
+        plan.render_with(frames[0].channels(), |i, (sx, sy), (ox, oy), px| {
+            let s = match rate {
+                Some(r) => t as f32 * r.rate(ox, oy),
+                None => t as f32,
+            };
+            sample(frames, sx, sy, warps[i].at(s), px);
+        })
+    };
+    // Seams are hidden in the gradient domain at key frames, against the
+    // input frame of the same time, and each frame adds the correction
+    // interpolated between its two key frames: blending every frame on its
+    // own lets a spot growing across a seam send a glow over its
+    // neighbourhood that changes from frame to frame (1.5x the input's
+    // flicker on a vignetted rust sequence). Simplification: a jittered
+    // or rate-warped block is continued across its seam with that frame's
+    // gradients, not its own warped time's; these differ only slightly,
+    // and the brightness jumps are what the blend removes.
+    let corrections: Vec<(usize, Vec<f32>)> = if params.quilt.blend && params.quilt.boundary_cut {
+        let positions = plan.source_positions();
+        key_frames(out_frames)
+            .into_par_iter()
+            .map(|(t, window)| {
+                // The blend is linear in the composite and the source, so
+                // blending the window's means gives its mean correction.
+                let k = 1.0 / window.len() as f32;
+                let mut img = Image::new(width, height, frames[0].channels());
+                let mut src = Image::new(frames[0].width(), frames[0].height(), frames[0].channels());
+                for u in window {
+                    img.data_mut().iter_mut().zip(render(u).data()).for_each(|(m, v)| *m += k * v);
+                    src.data_mut().iter_mut().zip(frames[u.min(n - 1)].data()).for_each(|(m, v)| *m += k * v);
+                }
+                let blended = crate::synth::blend::blend_seams(&img, &src, &positions);
+                (t, blended.data().iter().zip(img.data()).map(|(b, a)| b - a).collect())
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    report(70);
     let done = std::sync::atomic::AtomicU64::new(0);
-    // Seams are blended per frame in the gradient domain, against the input
-    // frame of the same time (jittered or rate-warped blocks differ from it
-    // only slightly in their gradients, and their brightness jumps are what
-    // the blend removes).
-    let positions = (params.quilt.blend && params.quilt.boundary_cut).then(|| plan.source_positions());
     let mut out: Vec<Image> = (0..out_frames)
         .into_par_iter()
         .map(|t| {
-            let img = plan.render_with(frames[0].channels(), |i, (sx, sy), (ox, oy), px| {
-                let s = match rate {
-                    Some(r) => t as f32 * r.rate(ox, oy),
-                    None => t as f32,
-                };
-                sample(frames, sx, sy, warps[i].at(s), px);
-            });
-            let img = match &positions {
-                Some(p) => crate::synth::blend::blend_seams(&img, &frames[t.min(n - 1)], p),
-                None => img,
-            };
+            let mut img = render(t);
+            if let Some(k) = corrections.iter().position(|(key, _)| *key >= t) {
+                let (t1, c1) = &corrections[k];
+                let (t0, c0) = &corrections[k.saturating_sub(1)];
+                let w = if t1 > t0 { (t - t0) as f32 / (t1 - t0) as f32 } else { 1.0 };
+                img.data_mut().iter_mut().zip(c0.iter().zip(c1)).for_each(|(v, (a, b))| *v += a + w * (b - a));
+            }
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            report(60 + 40 * d / out_frames as u64);
+            report(70 + 30 * d / out_frames as u64);
             img
         })
         .collect();
-    if let (Some(l), true) = (&lighting, params.keep_gradient) {
-        l.restore(&mut out)?;
+    let lighting = match &separated {
+        Some((sep, detail)) => {
+            relight_sequence(&mut out, sep, relight)?;
+            Some(LightingReport {
+                relight: relight.name(),
+                exemplar_nonstationarity: input_nonstationarity(original)?,
+                detail_nonstationarity: input_nonstationarity(detail)?,
+                sigma: sep.sigma,
+            })
+        }
+        None => None,
+    };
+    Ok(Ttf { frames: out, plan, warps, compression, lighting })
+}
+
+/// Frames apart at which seams are blended ([`synthesize`]).
+const KEY_STEP: usize = 16;
+
+/// The key frames of `n` output frames (every [`KEY_STEP`]-th and the
+/// last), each with the frames whose mean it blends: those within half a
+/// step of it.
+fn key_frames(n: usize) -> Vec<(usize, std::ops::Range<usize>)> {
+    let mut keys: Vec<usize> = (0..n).step_by(KEY_STEP).collect();
+    if n > 0 && keys.last() != Some(&(n - 1)) {
+        keys.push(n - 1);
     }
-    Ok(Ttf { frames: out, plan, warps, compression })
+    keys.into_iter().map(|t| (t, t.saturating_sub(KEY_STEP / 2)..(t + KEY_STEP / 2 + 1).min(n))).collect()
 }
 
 /// Validate the inputs; the input and output frame counts.
@@ -180,14 +309,11 @@ fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfPa
     if frames.iter().any(|f| f.size() != first.size() || f.channels() != first.channels()) {
         return Err(Error::invalid("the frames of a sequence must share one size and channel count"));
     }
-    if !params.jitter.is_finite() || params.jitter < 0.0 {
-        return Err(Error::invalid(format!("the time jitter must be a finite number >= 0, got {}", params.jitter)));
+    if params.jitter.is_some_and(|j| !j.is_finite() || j < 0.0) {
+        return Err(Error::invalid(format!("the time jitter must be a finite number >= 0, got {}", params.jitter.unwrap_or(0.0))));
     }
     if params.max_error.is_some_and(|e| !(0.0..1.0).contains(&e)) {
         return Err(Error::invalid("the SVD error target must be in [0, 1)"));
-    }
-    if !(params.flatten_sigma > 0.0 && params.flatten_sigma.is_finite()) {
-        return Err(Error::invalid("the flattening sigma must be positive"));
     }
     if let Some(r) = rate {
         if r.image().size() != (width, height) {
@@ -203,6 +329,18 @@ fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfPa
     let k = if params.rank == 0 || params.max_error.is_some() { n } else { params.rank.min(n) };
     crate::image::budget::check_working_set("time-lapse quilting", width, height, first.channels() * k)?;
     Ok((n, out_frames))
+}
+
+/// Large-scale variation ([`crate::metrics::nonstationarity`]) of the
+/// frames' temporal mean: the lighting every frame shares.
+pub fn input_nonstationarity(frames: &[Image]) -> Result<f32> {
+    let first = frames.first().ok_or_else(|| Error::invalid("the sequence has no frames"))?;
+    let k = 1.0 / frames.len() as f32;
+    let mut mean = Image::new(first.width(), first.height(), first.channels());
+    for f in frames {
+        mean.data_mut().par_iter_mut().zip(f.data().par_iter()).for_each(|(m, v)| *m += k * v);
+    }
+    Ok(crate::metrics::nonstationarity(&mean))
 }
 
 /// Per-frame weights that give every frame the same say in the block cost.

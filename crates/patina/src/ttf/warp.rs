@@ -8,8 +8,24 @@
 //! f is also kept within the sequence (<= n - 1). Between the integer times
 //! f is interpolated linearly, and a fractional source time blends its two
 //! neighbouring frames.
+//!
+//! Seam-matched jitter ([`seam_matched`], not in the paper): a block whose
+//! time is shifted shows a different stage of any change that spans its
+//! seam, a colour jump against its neighbours. So each block draws several
+//! warps and keeps the one whose overlap with the blocks already placed
+//! differs least over time; copies of one block still get different warps,
+//! and events inside a block (a spot that does not reach the seam) still
+//! happen at different times.
 
+use crate::image::Image;
 use crate::rng::{self, Rng};
+use crate::synth::QuiltPlan;
+use rayon::prelude::*;
+
+/// Warps drawn per block for [`seam_matched`].
+const CANDIDATES: usize = 8;
+/// Frames (evenly spaced) on which candidate warps are compared.
+const PROBE_FRAMES: usize = 12;
 
 /// One block's time warp: source time f(t) at the integer times 0..n.
 #[derive(Clone, Debug, PartialEq)]
@@ -57,6 +73,80 @@ impl TimeWarp {
         let w = s - i as f32;
         self.0[i] + w * (self.0[j] - self.0[i])
     }
+}
+
+/// One warp per placement of `plan` (in plan order) within `jitter` frames
+/// of the identity over the `frames`' time: of [`CANDIDATES`] random
+/// warps, the one whose pixels in the overlap with the blocks placed before
+/// it (its whole rectangle where they show, on both sides of the cut) are
+/// closest (squared difference summed over [`PROBE_FRAMES`] frames)
+/// to what those blocks show there at their own warped times.
+pub fn seam_matched(plan: &QuiltPlan, frames: &[Image], jitter: f32, seed: u64) -> Vec<TimeWarp> {
+    let n = frames.len();
+    if jitter <= 0.0 || n < 2 {
+        return vec![TimeWarp::identity(n); plan.placements.len()];
+    }
+    let (w, h) = (plan.width, plan.height);
+    let (bw, bh) = plan.block;
+    let c = frames[0].channels();
+    let probes: Vec<f32> = (0..PROBE_FRAMES).map(|k| (k * (n - 1)) as f32 / (PROBE_FRAMES - 1) as f32).collect();
+    let mut owner = vec![u32::MAX; w * h];
+    let mut warps: Vec<TimeWarp> = Vec::with_capacity(plan.placements.len());
+    let mut mine = Vec::new();
+    let mut theirs = Vec::new();
+    let mut value = vec![0f32; c];
+    for (i, p) in plan.placements.iter().enumerate() {
+        // The overlap: this block's source pixel and what the earlier
+        // blocks show there at every probe time.
+        mine.clear();
+        theirs.clear();
+        for y in 0..bh.min(h.saturating_sub(p.y)) {
+            for x in 0..bw.min(w.saturating_sub(p.x)) {
+                let j = owner[(p.y + y) * w + p.x + x];
+                if j == u32::MAX {
+                    continue;
+                }
+                let q = &plan.placements[j as usize];
+                let (qx, qy) = (q.source_x + p.x + x - q.x, q.source_y + p.y + y - q.y);
+                mine.push((p.source_x + x, p.source_y + y));
+                for &t in &probes {
+                    super::sample(frames, qx, qy, warps[j as usize].at(t), &mut value);
+                    theirs.extend_from_slice(&value);
+                }
+            }
+        }
+        let candidate = |k: usize| TimeWarp::jittered(n, jitter, rng::derive(seed, &[i as u64, k as u64]));
+        let best = if mine.is_empty() {
+            0
+        } else {
+            let costs: Vec<f64> = (0..CANDIDATES)
+                .into_par_iter()
+                .map(|k| {
+                    let warp = candidate(k);
+                    let times: Vec<f32> = probes.iter().map(|&t| warp.at(t)).collect();
+                    let mut v = vec![0f32; c];
+                    let mut cost = 0f64;
+                    for (&(sx, sy), want) in mine.iter().zip(theirs.chunks_exact(c * probes.len())) {
+                        for (&tau, want) in times.iter().zip(want.chunks_exact(c)) {
+                            super::sample(frames, sx, sy, tau, &mut v);
+                            cost += v.iter().zip(want).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>();
+                        }
+                    }
+                    cost
+                })
+                .collect();
+            (0..CANDIDATES).min_by(|&a, &b| costs[a].total_cmp(&costs[b]).then(a.cmp(&b))).unwrap_or(0)
+        };
+        warps.push(candidate(best));
+        for y in 0..bh.min(h.saturating_sub(p.y)) {
+            for x in 0..bw.min(w.saturating_sub(p.x)) {
+                if p.keep[y * bw + x] >= 0.5 {
+                    owner[(p.y + y) * w + p.x + x] = i as u32;
+                }
+            }
+        }
+    }
+    warps
 }
 
 #[cfg(test)]

@@ -30,13 +30,13 @@
 
 use super::features::Features;
 use super::tiles::{self, Periodicity};
-use crate::image::summed::SummedArea;
 use crate::error::{Error, Result};
 use crate::image::filter::gaussian_blur;
 use crate::image::resample::{resize, Filter};
+use crate::image::summed::SummedArea;
 use crate::image::{Image, Mask};
-use crate::synth::correlate::SpectralSource;
 use crate::rng::Rng;
+use crate::synth::correlate::SpectralSource;
 use crate::synth::nnf::{random_nnf, SourceDomain};
 use crate::synth::{PatchMatch, PatchMetric};
 use rayon::prelude::*;
@@ -91,7 +91,18 @@ pub enum Prevalence {
 
 impl Default for AgeParams {
     fn default() -> Self {
-        AgeParams { grid: 20, min_patch: 8, k: 10, k_fraction: Some(0.4), colour: true, smoothing: 0.5, detail: 1.0, detail_patch: 5, prevalence: Prevalence::Coverage, regular: true }
+        AgeParams {
+            grid: 20,
+            min_patch: 8,
+            k: 10,
+            k_fraction: Some(0.4),
+            colour: true,
+            smoothing: 0.5,
+            detail: 1.0,
+            detail_patch: 5,
+            prevalence: Prevalence::Coverage,
+            regular: true,
+        }
     }
 }
 
@@ -395,7 +406,8 @@ fn regularity(f: &Features, v: [f32; 2], patch: usize) -> Image {
     let dir = &f.direction;
     let (w, h) = dir.size();
     let r = (patch / 2) as i64;
-    let shifts: Vec<(i64, i64)> = [-2.0f32, -1.0, 1.0, 2.0].iter().map(|k| ((k * v[0]).round() as i64, (k * v[1]).round() as i64)).collect();
+    let shifts: Vec<(i64, i64)> =
+        [-2.0f32, -1.0, 1.0, 2.0].iter().map(|k| ((k * v[0]).round() as i64, (k * v[1]).round() as i64)).collect();
     let at = |x: i64, y: i64| dir.pixel(x.clamp(0, w as i64 - 1) as usize, y.clamp(0, h as i64 - 1) as usize);
     let mut dist = vec![0f32; w * h];
     dist.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
@@ -563,7 +575,9 @@ fn detail_term(f: &Features, coarse: &Image, patch: usize) -> Result<Image> {
     let core = pool.erode(patch);
     take(&mut out, pool_distance(appearance, &pool, patch)?, Some(&core), DETAIL_QUANTILE);
     if let Some(s) = &small {
-        let small_pool = Mask::from_fn(hw, hh, |x, y| pool.get((2 * x).min(w - 1), (2 * y).min(h - 1)) && pool.get((2 * x + 1).min(w - 1), (2 * y + 1).min(h - 1)));
+        let small_pool = Mask::from_fn(hw, hh, |x, y| {
+            pool.get((2 * x).min(w - 1), (2 * y).min(h - 1)) && pool.get((2 * x + 1).min(w - 1), (2 * y + 1).min(h - 1))
+        });
         take(&mut out, up(pool_distance(s, &small_pool, patch)?)?, Some(&core), DETAIL_QUANTILE);
     }
     if !out.data().iter().all(|v| v.is_finite()) {

@@ -98,7 +98,9 @@ pub fn arrival_times(age: &Image, weathered: &Mask, seed: u64) -> Vec<f32> {
             continue;
         }
         let (x, y) = ((i % w) as i64, (i / w) as i64);
-        for (dx, dy, len) in [(1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0), (1, 1, 1.414), (1, -1, 1.414), (-1, 1, 1.414), (-1, -1, 1.414)] {
+        for (dx, dy, len) in
+            [(1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0), (1, 1, 1.414), (1, -1, 1.414), (-1, 1, 1.414), (-1, -1, 1.414)]
+        {
             let (nx, ny) = (x + dx, y + dy);
             if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
                 continue;
@@ -115,14 +117,7 @@ pub fn arrival_times(age: &Image, weathered: &Mask, seed: u64) -> Vec<f32> {
 }
 
 /// Frames for t > 1 grown by front propagation (see the module docs).
-pub fn future(
-    input: &Image,
-    age: &Image,
-    cut: f32,
-    params: &SequenceParams,
-    seed: u64,
-    progress: &dyn Fn(usize),
-) -> Result<Vec<Frame>> {
+pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, seed: u64, progress: &dyn Fn(usize)) -> Result<Vec<Frame>> {
     let (w, h) = input.size();
     if age.size() != input.size() {
         return Err(Error::invalid("the input and its age map must have one size"));

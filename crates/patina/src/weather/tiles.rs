@@ -169,9 +169,8 @@ fn profile_period(profile: &[f32]) -> Option<(f32, f32)> {
     let n = profile.len();
     // Smooth over a couple of samples: a groove's two edges become one bump.
     let kernel = [0.06f32, 0.24, 0.4, 0.24, 0.06];
-    let smooth: Vec<f32> = (0..n)
-        .map(|i| kernel.iter().enumerate().map(|(k, w)| w * profile[(i + k).saturating_sub(2).min(n - 1)]).sum())
-        .collect();
+    let smooth: Vec<f32> =
+        (0..n).map(|i| kernel.iter().enumerate().map(|(k, w)| w * profile[(i + k).saturating_sub(2).min(n - 1)]).sum()).collect();
     let mean = smooth.iter().sum::<f32>() / n.max(1) as f32;
     let v: Vec<f32> = smooth.iter().map(|p| p - mean).collect();
     let ac = |lag: usize| -> f32 { v.iter().zip(&v[lag..]).map(|(a, b)| a * b).sum::<f32>() / (n - lag) as f32 };

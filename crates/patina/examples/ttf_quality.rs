@@ -1,0 +1,95 @@
+//! Time-lapse synthesis quality on real sequences (issue 17): each sequence
+//! in ../shared/data/timelapse (and a procedural one under a vignette) is
+//! enlarged 2x, and the figures of the issue are printed per setting:
+//!
+//! - grid: the block-grid peak of the output's gradient profile over the
+//!   input's ([`patina::metrics::grid_peak`]), at the middle and last frame;
+//! - repeats: near-verbatim repeated share of the middle frame;
+//! - flicker: mean frame-to-frame change of the output over the input's;
+//! - time and frames.
+//!
+//!     cargo run --release -p patina --example ttf_quality [OUT_DIR]
+//!
+//! With OUT_DIR, the middle frame of every run is written there as
+//! NAME_SETTING.png (for contact sheets). `TTF_FRAMES` caps the frames per
+//! sequence (default 40), `TTF_ONLY` runs one sequence.
+
+use patina::image::io::{save_png, BitDepth};
+use patina::image::sequence::load_sequence;
+use patina::metrics::{flicker, grid_peak, repeated_share};
+use patina::synth::QuiltParams;
+use patina::ttf::{input_nonstationarity, synthesize, SequenceLighting, TtfParams};
+use patina::Image;
+use std::path::PathBuf;
+use std::time::Instant;
+
+fn data(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/timelapse").join(name)
+}
+
+fn main() {
+    let out_dir = std::env::args().nth(1).map(PathBuf::from);
+    if let Some(d) = &out_dir {
+        std::fs::create_dir_all(d).expect("out dir");
+    }
+    let cap: usize = std::env::var("TTF_FRAMES").ok().and_then(|v| v.parse().ok()).unwrap_or(40);
+    let only = std::env::var("TTF_ONLY").ok();
+    let mut sequences: Vec<(String, Vec<Image>)> = Vec::new();
+    for name in ["copper_patinating", "clay_solidifying", "growing_sprouts", "rusting_steel"] {
+        if only.as_deref().is_some_and(|o| o != name) {
+            continue;
+        }
+        if let Ok(s) = load_sequence(data(name)) {
+            let n = s.frames.len();
+            let step = n.div_ceil(cap).max(1);
+            sequences.push((name.to_string(), s.frames.into_iter().step_by(step).collect()));
+        }
+    }
+    if only.as_deref().is_none_or(|o| o == "vignetted_rust") {
+        let f = patina::samples::rusting_timelapse(128, 128, cap, 3);
+        sequences.push(("vignetted_rust".into(), patina::samples::vignette(&f, 0.6)));
+    }
+    let mut settings: Vec<(String, TtfParams)> = vec![("default".into(), TtfParams::default()), ("paper".into(), TtfParams::paper())];
+    if std::env::var("TTF_ABLATE").is_ok() {
+        let d = TtfParams::default();
+        settings.push(("no-jitter".into(), TtfParams { jitter: Some(0.0), ..d.clone() }));
+        settings.push(("no-blend".into(), TtfParams { quilt: QuiltParams { blend: false, ..d.quilt.clone() }, ..d.clone() }));
+        settings.push(("keep-light".into(), TtfParams { lighting: SequenceLighting::Keep, ..d.clone() }));
+    }
+    // TTF_TRY="BLOCK,OVERLAP;..." adds default settings with those sizes.
+    for spec in std::env::var("TTF_TRY").unwrap_or_default().split(';').filter(|s| !s.is_empty()) {
+        let v: Vec<usize> = spec.split(',').map(|x| x.parse().expect("BLOCK,OVERLAP")).collect();
+        let mut p = TtfParams::default();
+        p.quilt.block = Some((v[0], v[0]));
+        p.quilt.overlap = Some((v[1], v[1]));
+        settings.push((format!("b{}o{}", v[0], v[1]), p));
+    }
+    println!("| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | lighting | time s |");
+    println!("|---|---|---:|---:|---:|---:|---|---:|");
+    for (name, frames) in &sequences {
+        let (w, h) = frames[0].size();
+        let n = frames.len();
+        let (g_mid, g_last) = (grid_peak(&frames[n / 2]), grid_peak(&frames[n - 1]));
+        let f_in = flicker(frames);
+        let rep_in = repeated_share(&frames[n / 2], 9, 16, 1).expect("repeats");
+        println!("| {name} {w}x{h}x{n} | input | 1 | 1 | {rep_in:.3} | 1 | {:.3} | |", input_nonstationarity(frames).expect("frames"));
+        for (label, params) in &settings {
+            let start = Instant::now();
+            let out = synthesize(frames, (2 * w, 2 * h), params, None, 1, None).expect("synthesize");
+            let secs = start.elapsed().as_secs_f64();
+            let o = &out.frames;
+            let rep = repeated_share(&o[n / 2], 9, 16, 1).expect("repeats");
+            println!(
+                "| {name} | {label} | {:.2} | {:.2} | {rep:.3} | {:.2} | {} | {secs:.1} |",
+                grid_peak(&o[n / 2]) / g_mid,
+                grid_peak(&o[n - 1]) / g_last,
+                flicker(o) / f_in,
+                if out.lighting.is_some() { "split" } else { "kept" },
+            );
+            if let Some(d) = &out_dir {
+                save_png(&o[n / 2], d.join(format!("{name}_{label}.png")), BitDepth::Eight).expect("save");
+                save_png(&frames[n / 2], d.join(format!("{name}_input.png")), BitDepth::Eight).expect("save");
+            }
+        }
+    }
+}
