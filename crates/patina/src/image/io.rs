@@ -392,9 +392,15 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut Vec<u8>) -> Result<()>) 
     Ok(())
 }
 
+/// Pixels sampled (over all frames) to train an animation's palette.
+const PALETTE_SAMPLES: usize = 1 << 20;
+
 /// Save `frames` (one size; grey, RGB or with alpha, values in [0, 1]) as
 /// an animated GIF that loops forever, each frame shown `delay_ms`.
-/// Colours are quantised per frame (NeuQuant), as GIF allows 256.
+/// One palette serves every frame (NeuQuant, trained on pixels sampled
+/// evenly from all of them), so colours that stay put do not shimmer from
+/// frame to frame as they would with a palette per frame. Pixels with
+/// alpha below one half are transparent.
 pub fn save_gif(frames: &[&Image], path: impl AsRef<Path>, delay_ms: u32) -> Result<()> {
     use rayon::prelude::*;
     let path = path.as_ref();
@@ -406,32 +412,56 @@ pub fn save_gif(frames: &[&Image], path: impl AsRef<Path>, delay_ms: u32) -> Res
     if w > usize::from(u16::MAX) || h > usize::from(u16::MAX) {
         return Err(Error::invalid(format!("a GIF cannot be {w}x{h} (at most 65535 per side)")));
     }
-    // Each frame's palette is quantised (NeuQuant) on its own thread; the
-    // frames are then written in order.
+    let rgba = |f: &Image| -> Vec<u8> {
+        let n = f.channels();
+        let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+        f.data()
+            .chunks_exact(n)
+            .flat_map(|p| match n {
+                1 => [q(p[0]), q(p[0]), q(p[0]), 255],
+                2 => [q(p[0]), q(p[0]), q(p[0]), q(p[1])],
+                3 => [q(p[0]), q(p[1]), q(p[2]), 255],
+                _ => [q(p[0]), q(p[1]), q(p[2]), q(p[3])],
+            })
+            .collect()
+    };
+    // Train on every step-th opaque pixel of every frame.
+    let total = w * h * frames.len();
+    let step = total.div_ceil(PALETTE_SAMPLES).max(1);
+    let mut training = Vec::with_capacity(4 * total.div_ceil(step));
+    let mut k = 0usize;
+    for f in frames {
+        for p in rgba(f).chunks_exact(4) {
+            if k.is_multiple_of(step) && p[3] >= 128 {
+                training.extend_from_slice(&[p[0], p[1], p[2], 255]);
+            }
+            k += 1;
+        }
+    }
+    if training.is_empty() {
+        training.extend_from_slice(&[0, 0, 0, 255]);
+    }
+    // Index 255 is kept for transparency.
+    let quant = color_quant::NeuQuant::new(10, 255, &training);
+    let mut palette = quant.color_map_rgb();
+    palette.resize(256 * 3, 0);
     let delay = u16::try_from(delay_ms.div_ceil(10)).unwrap_or(u16::MAX);
     let encoded: Vec<gif::Frame<'static>> = frames
         .par_iter()
         .map(|f| {
-            let n = f.channels();
-            let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-            let mut rgba: Vec<u8> = f
-                .data()
-                .chunks_exact(n)
-                .flat_map(|p| match n {
-                    1 => [q(p[0]), q(p[0]), q(p[0]), 255],
-                    2 => [q(p[0]), q(p[0]), q(p[0]), q(p[1])],
-                    3 => [q(p[0]), q(p[1]), q(p[2]), 255],
-                    _ => [q(p[0]), q(p[1]), q(p[2]), q(p[3])],
-                })
-                .collect();
-            let mut frame = gif::Frame::from_rgba_speed(w as u16, h as u16, &mut rgba, 10);
+            let px = rgba(f);
+            let transparent = px.chunks_exact(4).any(|p| p[3] < 128);
+            let indices: Vec<u8> =
+                px.chunks_exact(4).map(|p| if p[3] < 128 { 255 } else { quant.index_of(&[p[0], p[1], p[2], 255]) as u8 }).collect();
+            let mut frame = gif::Frame::from_palette_pixels(w as u16, h as u16, indices, Vec::new(), transparent.then_some(255));
+            frame.palette = None; // the global palette
             frame.delay = delay;
             frame
         })
         .collect();
     write_atomic(path, |buf| {
         let gif_err = |e: gif::EncodingError| Error::Internal(format!("gif: {e}"));
-        let mut enc = gif::Encoder::new(&mut *buf, w as u16, h as u16, &[]).map_err(gif_err)?;
+        let mut enc = gif::Encoder::new(&mut *buf, w as u16, h as u16, &palette).map_err(gif_err)?;
         enc.set_repeat(gif::Repeat::Infinite).map_err(gif_err)?;
         for frame in &encoded {
             enc.write_frame(frame).map_err(gif_err)?;
@@ -562,6 +592,40 @@ mod tests {
         let d = std::env::temp_dir().join(format!("patina-io-{name}-{}", std::process::id()));
         std::fs::create_dir_all(&d).unwrap();
         d
+    }
+
+    #[test]
+    fn an_animation_shares_one_palette_so_still_pixels_keep_their_colour() {
+        // The left half is a still colour ramp; the right half changes hue
+        // from frame to frame, which would move a per-frame palette.
+        let frames: Vec<Image> = (0..6)
+            .map(|t| {
+                Image::from_fn(64, 32, 3, |x, y, p| {
+                    if x < 32 {
+                        p.copy_from_slice(&[x as f32 / 31.0, y as f32 / 31.0, 0.5]);
+                    } else {
+                        let a = t as f32 / 5.0;
+                        p.copy_from_slice(&[a, 1.0 - a, (x as f32 / 63.0 + a) % 1.0]);
+                    }
+                })
+            })
+            .collect();
+        let dir = temp_dir("gif");
+        let path = dir.join("a.gif");
+        save_gif(&frames.iter().collect::<Vec<_>>(), &path, 50).unwrap();
+        let back = crate::image::sequence::load_sequence(&path).unwrap().frames;
+        assert_eq!(back.len(), 6);
+        for f in &back[1..] {
+            for y in 0..32 {
+                for x in 0..32 {
+                    assert_eq!(f.pixel(x, y), back[0].pixel(x, y), "still pixel ({x}, {y}) changed colour");
+                }
+            }
+        }
+        // And the palette still represents the colours closely.
+        let err = back[3].data().iter().zip(frames[3].data()).map(|(a, b)| (a - b).abs()).sum::<f32>() / back[3].data().len() as f32;
+        assert!(err < 0.03, "mean error {err}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -30,8 +30,12 @@ const SWEEPS: usize = 2;
 /// Blend the seams of `composite`, whose pixel i was copied from exemplar
 /// pixel `sources[i]` of `source` (same channels). Pixels whose right or
 /// lower neighbour continues their own source position are inside one
-/// block; every other neighbour pair straddles a seam.
-pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)]) -> Image {
+/// block; every other neighbour pair straddles a seam. With `outlier`,
+/// mismatches above that many times their median are clamped to it
+/// ([`clamp_outliers`]; a time-lapse uses it so features growing across a
+/// seam do not send a changing glow around them; a still image is blended
+/// unclamped, as a clamp leaves part of strong tone steps).
+pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)], outlier: Option<f32>) -> Image {
     let (w, h, n) = (composite.width(), composite.height(), composite.channels());
     assert_eq!(sources.len(), w * h, "one source position per pixel");
     assert_eq!(source.channels(), n, "source and composite channels differ");
@@ -70,7 +74,10 @@ pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)]) ->
     };
     let mut out = composite.clone();
     for c in 0..n {
-        let (mh, mv) = (mismatch(true, c), mismatch(false, c));
+        let (mut mh, mut mv) = (mismatch(true, c), mismatch(false, c));
+        if let Some(k) = outlier {
+            clamp_outliers(&mut mh, &mut mv, k);
+        }
         // Right-hand side: the divergence of the mismatch field.
         let mut b = vec![0f32; w * h];
         for y in 0..h {
@@ -102,6 +109,22 @@ pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)]) ->
         }
     }
     out
+}
+
+/// Clamp the seam mismatches to `outlier` x their median magnitude. A
+/// block's tone differs from its neighbour's by about the same amount all
+/// along their seam, which the blend should spread; a feature cut by the
+/// seam (a spot, a crack) makes a few large mismatches, which the blend
+/// would smear into a glow around it (and, in a time-lapse, one that
+/// changes as the feature grows).
+fn clamp_outliers(mh: &mut [f32], mv: &mut [f32], outlier: f32) {
+    let mut mags: Vec<f32> = mh.iter().chain(mv.iter()).filter(|v| **v != 0.0).map(|v| v.abs()).collect();
+    if mags.is_empty() {
+        return;
+    }
+    let mid = mags.len() / 2;
+    let limit = outlier * *mags.select_nth_unstable_by(mid, f32::total_cmp).1;
+    mh.iter_mut().chain(mv.iter_mut()).for_each(|v| *v = v.clamp(-limit, limit));
 }
 
 /// Half-size average of a w x h grid (cell-centred restriction).
@@ -268,7 +291,7 @@ mod tests {
             };
             (mean(48) - mean(44)).abs()
         };
-        let blended = blend_seams(&composite, &source, &sources);
+        let blended = blend_seams(&composite, &source, &sources, None);
         assert!(step(&composite) > 0.04, "the composite has a step: {}", step(&composite));
         assert!(step(&blended) < 0.3 * step(&composite), "step {} -> {}", step(&composite), step(&blended));
         // Inside each block the detail (gradients) is kept.
