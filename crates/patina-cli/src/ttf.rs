@@ -56,8 +56,8 @@ pub struct Args {
     /// Join blocks with the paper's cut only: no gradient-domain blending of the seams.
     #[arg(long)]
     pub no_blend: bool,
-    /// Reuse penalty: a block's cost grows by this factor for every block already taken from around the same input spot (0 = off, the paper).
-    #[arg(long, default_value_t = 1.5, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    /// Reuse penalty: a block's cost grows by this factor for every block already taken from around the same input spot (0 = off, the paper); fewer repeated features, at the price of more events per area.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub reuse: f32,
     /// Sum the block cost over frames as they are (the paper's eq. 3). By default each frame is weighted by the inverse of its fine-detail contrast, so smooth early frames get seams as clean as busy late ones.
     #[arg(long)]

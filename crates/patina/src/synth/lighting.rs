@@ -65,10 +65,7 @@ pub fn separate(img: &Image) -> Separation {
     let sigma = img.width().min(img.height()) as f32 / 8.0;
     let lum = luminance(img);
     let mean_luminance = mean(&lum);
-    let log_lum = lum.map(|v| (v.max(0.0) + LOG_FLOOR).ln());
-    let mut field = gaussian_blur(&log_lum, sigma);
-    let mean = field.data().iter().map(|&v| v as f64).sum::<f64>() as f32 / field.data().len().max(1) as f32;
-    field.data_mut().iter_mut().for_each(|v| *v -= mean);
+    let field = log_field(&lum, sigma);
     let mut detail = img.clone();
     apply_gain(&mut detail, &field.data().iter().map(|f| (-f).exp()).collect::<Vec<_>>());
     Separation { detail, log_field: field, sigma, mean_luminance }
@@ -87,30 +84,84 @@ pub fn relight(detail: &Image, sep: &Separation, how: Relight) -> Result<Image> 
     Ok(out)
 }
 
-/// Split a sequence under one fixed light (a vignette, a flash hot-spot):
-/// the illumination is that of the frames' temporal mean (no single frame
-/// is representative while the surface changes), and every frame is
-/// divided by it. Returns the separation of the mean frame and the
+/// Split a sequence under a fixed light (a vignette, a flash hot-spot)
+/// that may drift slowly (a shine that fades as the surface dulls).
+///
+/// The fixed part is [`separate`]'s field of the frames' temporal mean. The
+/// drift is each frame's own very-low-pass log luminance ([`DRIFT_SIGMA`])
+/// minus its mean over all frames, averaged over [`SEQUENCE_WINDOW`] of the
+/// frames on either side. Each frame is divided by both. One field for all
+/// frames left copper's first frames, bright on one side and dark on the
+/// other, as a patchwork of bright and dark blocks (the mean was dominated
+/// by the later, evenly dull patina); a per-frame field at the fixed
+/// part's scale followed the content instead (rust spots), and flickered
+/// at 1.3-1.5x the input's. Returns the separation of the mean frame (its
+/// mean luminance and field serve flat and stretched re-lighting) and the
 /// frames' detail layers.
 pub fn separate_sequence(frames: &[Image]) -> Result<(Separation, Vec<Image>)> {
     let first = frames.first().ok_or_else(|| Error::invalid("the sequence has no frames"))?;
+    let n = frames.len();
     let mut sum = vec![0f64; first.data().len()];
     for f in frames {
         sum.par_iter_mut().zip(f.data().par_iter()).for_each(|(s, v)| *s += f64::from(*v));
     }
-    let k = frames.len() as f64;
-    let mean_frame = Image::from_data(first.width(), first.height(), first.channels(), sum.iter().map(|s| (s / k) as f32).collect())?;
+    let mean_frame =
+        Image::from_data(first.width(), first.height(), first.channels(), sum.iter().map(|s| (s / n as f64) as f32).collect())?;
     let sep = separate(&mean_frame);
-    let inverse: Vec<f32> = sep.log_field.data().iter().map(|f| (-f).exp()).collect();
-    let details = frames
-        .par_iter()
-        .map(|f| {
-            let mut d = f.clone();
-            apply_gain(&mut d, &inverse);
+    let drift_sigma = first.width().min(first.height()) as f32 * DRIFT_SIGMA;
+    let drifts: Vec<Vec<f32>> =
+        frames.par_iter().map(|f| drift_field(&luminance(f), drift_sigma).map(Image::into_data)).collect::<Result<_>>()?;
+    let mut mean_drift = vec![0f32; drifts[0].len()];
+    for d in &drifts {
+        mean_drift.iter_mut().zip(d).for_each(|(m, v)| *m += v / n as f32);
+    }
+    let half = ((n as f32 * SEQUENCE_WINDOW).round() as usize).max(1);
+    let details = (0..n)
+        .into_par_iter()
+        .map(|t| {
+            let window = &drifts[t.saturating_sub(half)..(t + half + 1).min(n)];
+            let k = 1.0 / window.len() as f32;
+            let mut field: Vec<f32> = sep.log_field.data().iter().zip(&mean_drift).map(|(f, m)| f - m).collect();
+            for d in window {
+                field.iter_mut().zip(d).for_each(|(g, v)| *g += k * v);
+            }
+            field.iter_mut().for_each(|g| *g = (-*g).exp());
+            let mut d = frames[t].clone();
+            apply_gain(&mut d, &field);
             d
         })
         .collect();
     Ok((sep, details))
+}
+
+/// Share of a sequence's frames, on either side of a frame, whose lighting
+/// drift is averaged into its own ([`separate_sequence`]).
+pub const SEQUENCE_WINDOW: f32 = 1.0 / 24.0;
+
+/// Sigma of the drift's low-pass, as a share of the shorter side: a third,
+/// so it follows a light that moves across the frame, not the content.
+pub const DRIFT_SIGMA: f32 = 1.0 / 3.0;
+
+/// The very-low-pass log luminance of `lum` (Gaussian of `sigma`, computed
+/// at an eighth of the size and stretched back: at this scale nothing finer
+/// survives), relative to its mean.
+fn drift_field(lum: &Image, sigma: f32) -> Result<Image> {
+    let (w, h) = lum.size();
+    let (sw, sh) = ((w / 8).max(1), (h / 8).max(1));
+    let small = resize(&lum.map(|v| (v.max(0.0) + LOG_FLOOR).ln()), sw, sh, Filter::Linear)?;
+    let mut blurred = gaussian_blur(&small, sigma * sw as f32 / w as f32);
+    let mean = blurred.data().iter().map(|&v| v as f64).sum::<f64>() as f32 / blurred.data().len().max(1) as f32;
+    blurred.data_mut().iter_mut().for_each(|v| *v -= mean);
+    resize(&blurred, w, h, Filter::Linear)
+}
+
+/// The low-passed log luminance of `lum`, relative to its mean.
+fn log_field(lum: &Image, sigma: f32) -> Image {
+    let log_lum = lum.map(|v| (v.max(0.0) + LOG_FLOOR).ln());
+    let mut field = gaussian_blur(&log_lum, sigma);
+    let mean = field.data().iter().map(|&v| v as f64).sum::<f64>() as f32 / field.data().len().max(1) as f32;
+    field.data_mut().iter_mut().for_each(|v| *v -= mean);
+    field
 }
 
 /// Re-light synthesized detail frames with one gain for all of them (a flat

@@ -59,6 +59,25 @@ impl TimeWarp {
         TimeWarp(f)
     }
 
+    /// This warp applied in another clock: `pace[t]` is frame t's time on
+    /// that clock (increasing from 0, within this warp's domain), and the
+    /// result maps t to the frame whose clock time is f(pace[t]). Monotone
+    /// and 0 at 0; where the clock runs at least one unit per frame, it
+    /// stays as close to the identity as this warp does.
+    pub fn through(&self, pace: &[f32]) -> TimeWarp {
+        let last = pace.len().saturating_sub(1);
+        let inverse = |v: f32| -> f32 {
+            // The first frame whose clock time reaches v, interpolated.
+            let i = pace.partition_point(|&p| p < v).min(last);
+            if i == 0 {
+                return 0.0;
+            }
+            let (a, b) = (pace[i - 1], pace[i]);
+            (i - 1) as f32 + if b > a { ((v - a) / (b - a)).clamp(0.0, 1.0) } else { 1.0 }
+        };
+        TimeWarp(pace.iter().map(|&p| inverse(self.at(p))).collect())
+    }
+
     /// f at the integer times.
     pub fn samples(&self) -> &[f32] {
         &self.0
@@ -76,12 +95,13 @@ impl TimeWarp {
 }
 
 /// One warp per placement of `plan` (in plan order) within `jitter` frames
-/// of the identity over the `frames`' time: of [`CANDIDATES`] random
+/// of the identity on the clock `pace` ([`TimeWarp::through`]; the
+/// identity clock `0..n` gives the paper's warps) over the `frames`' time: of [`CANDIDATES`] random
 /// warps, the one whose pixels in the overlap with the blocks placed before
 /// it (its whole rectangle where they show, on both sides of the cut) are
 /// closest (squared difference summed over [`PROBE_FRAMES`] frames)
 /// to what those blocks show there at their own warped times.
-pub fn seam_matched(plan: &QuiltPlan, frames: &[Image], jitter: f32, seed: u64) -> Vec<TimeWarp> {
+pub fn seam_matched(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32], seed: u64) -> Vec<TimeWarp> {
     let n = frames.len();
     if jitter <= 0.0 || n < 2 {
         return vec![TimeWarp::identity(n); plan.placements.len()];
@@ -89,6 +109,7 @@ pub fn seam_matched(plan: &QuiltPlan, frames: &[Image], jitter: f32, seed: u64) 
     let (w, h) = (plan.width, plan.height);
     let (bw, bh) = plan.block;
     let c = frames[0].channels();
+    let domain = pace.last().map_or(n, |&p| p.ceil() as usize + 1);
     let probes: Vec<f32> = (0..PROBE_FRAMES).map(|k| (k * (n - 1)) as f32 / (PROBE_FRAMES - 1) as f32).collect();
     let mut owner = vec![u32::MAX; w * h];
     let mut warps: Vec<TimeWarp> = Vec::with_capacity(plan.placements.len());
@@ -115,7 +136,7 @@ pub fn seam_matched(plan: &QuiltPlan, frames: &[Image], jitter: f32, seed: u64) 
                 }
             }
         }
-        let candidate = |k: usize| TimeWarp::jittered(n, jitter, rng::derive(seed, &[i as u64, k as u64]));
+        let candidate = |k: usize| TimeWarp::jittered(domain, jitter, rng::derive(seed, &[i as u64, k as u64])).through(pace);
         let best = if mine.is_empty() {
             0
         } else {
@@ -165,5 +186,27 @@ mod tests {
             assert!(f.iter().enumerate().any(|(t, v)| (v - t as f32).abs() > 0.05 * e), "jitter {e} did nothing");
         }
         assert_eq!(TimeWarp::jittered(10, 0.0, 4), TimeWarp::identity(10));
+    }
+
+    #[test]
+    fn a_warp_through_a_clock_keeps_fast_stretches_nearly_in_step() {
+        let w = TimeWarp::jittered(200, 6.0, 5);
+        let identity: Vec<f32> = (0..80).map(|t| t as f32).collect();
+        // On the identity clock the warp is itself (clamped to the last frame).
+        let same: Vec<f32> = w.samples()[..80].iter().map(|v| v.min(79.0)).collect();
+        assert_eq!(w.through(&identity).samples(), same.as_slice());
+        // The steps into frames 40, 41 and 42 change 30x faster than the rest,
+        // so frames 40 and 41, inside that stretch, barely move.
+        let mut clock = vec![0f32; 80];
+        for t in 1..80 {
+            clock[t] = clock[t - 1] + if (40..43).contains(&t) { 30.0 } else { 1.0 };
+        }
+        let f = w.through(&clock);
+        let s = f.samples();
+        assert!(s.windows(2).all(|p| p[1] >= p[0]), "monotone");
+        assert!(s.iter().enumerate().all(|(t, v)| (v - t as f32).abs() <= 6.0 + 1e-4), "band in frames");
+        for (t, v) in s.iter().enumerate().take(42).skip(40) {
+            assert!((v - t as f32).abs() <= 6.0 / 30.0 + 1e-3, "frame {t} moved to {v}");
+        }
     }
 }
