@@ -31,10 +31,10 @@ const SWEEPS: usize = 2;
 /// pixel `sources[i]` of `source` (same channels). Pixels whose right or
 /// lower neighbour continues their own source position are inside one
 /// block; every other neighbour pair straddles a seam. With `outlier`,
-/// mismatches above that many times their median are clamped to it
-/// ([`clamp_outliers`]; a time-lapse uses it so features growing across a
-/// seam do not send a changing glow around them; a still image is blended
-/// unclamped, as a clamp leaves part of strong tone steps).
+/// each seam's mismatches are clamped to that many median absolute
+/// deviations around their median ([`clamp_outliers`]; a time-lapse uses
+/// it so features growing across a seam do not send a changing glow
+/// around them).
 pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)], outlier: Option<f32>) -> Image {
     let (w, h, n) = (composite.width(), composite.height(), composite.channels());
     assert_eq!(sources.len(), w * h, "one source position per pixel");
@@ -76,7 +76,7 @@ pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)], ou
     for c in 0..n {
         let (mut mh, mut mv) = (mismatch(true, c), mismatch(false, c));
         if let Some(k) = outlier {
-            clamp_outliers(&mut mh, &mut mv, k);
+            clamp_outliers(&mut mh, &mut mv, sources, w, k);
         }
         // Right-hand side: the divergence of the mismatch field.
         let mut b = vec![0f32; w * h];
@@ -111,20 +111,46 @@ pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)], ou
     out
 }
 
-/// Clamp the seam mismatches to `outlier` x their median magnitude. A
-/// block's tone differs from its neighbour's by about the same amount all
-/// along their seam, which the blend should spread; a feature cut by the
-/// seam (a spot, a crack) makes a few large mismatches, which the blend
-/// would smear into a glow around it (and, in a time-lapse, one that
-/// changes as the feature grows).
-fn clamp_outliers(mh: &mut [f32], mv: &mut [f32], outlier: f32) {
-    let mut mags: Vec<f32> = mh.iter().chain(mv.iter()).filter(|v| **v != 0.0).map(|v| v.abs()).collect();
-    if mags.is_empty() {
-        return;
+/// Clamp each seam mismatch to within `outlier` x the median absolute
+/// deviation of the mismatches along the same seam (the same pair of
+/// blocks, told apart by their source offsets) from their median. Two
+/// blocks whose tones differ differ by about the same amount all along
+/// their seam, and that median step is kept for the blend to spread; a
+/// feature cut by the seam (a spot, a crack) makes a few large mismatches,
+/// which the blend would smear into a glow around it (in a time-lapse, one
+/// that changes as the feature grows).
+fn clamp_outliers(mh: &mut [f32], mv: &mut [f32], sources: &[(u32, u32)], w: usize, outlier: f32) {
+    let offset = |i: usize| (sources[i].0 as i64 - (i % w) as i64, sources[i].1 as i64 - (i / w) as i64);
+    let key = |i: usize, horizontal: bool| {
+        let j = if horizontal { i + 1 } else { i + w };
+        (offset(i), offset(j))
+    };
+    let mut seams: std::collections::BTreeMap<_, Vec<f32>> = std::collections::BTreeMap::new();
+    for (m, horizontal) in [(&*mh, true), (&*mv, false)] {
+        for (i, &v) in m.iter().enumerate().filter(|(_, v)| **v != 0.0) {
+            seams.entry(key(i, horizontal)).or_default().push(v);
+        }
     }
-    let mid = mags.len() / 2;
-    let limit = outlier * *mags.select_nth_unstable_by(mid, f32::total_cmp).1;
-    mh.iter_mut().chain(mv.iter_mut()).for_each(|v| *v = v.clamp(-limit, limit));
+    let median = |v: &mut [f32]| {
+        let mid = v.len() / 2;
+        *v.select_nth_unstable_by(mid, f32::total_cmp).1
+    };
+    let bands: std::collections::BTreeMap<_, (f32, f32)> = seams
+        .into_iter()
+        .map(|(k, mut v)| {
+            let med = median(&mut v);
+            let mut dev: Vec<f32> = v.iter().map(|x| (x - med).abs()).collect();
+            let spread = outlier * median(&mut dev).max(1e-3);
+            (k, (med - spread, med + spread))
+        })
+        .collect();
+    for (m, horizontal) in [(mh, true), (mv, false)] {
+        for (i, v) in m.iter_mut().enumerate().filter(|(_, v)| **v != 0.0) {
+            if let Some(&(lo, hi)) = bands.get(&key(i, horizontal)) {
+                *v = v.clamp(lo, hi);
+            }
+        }
+    }
 }
 
 /// Half-size average of a w x h grid (cell-centred restriction).
