@@ -145,7 +145,9 @@ pub fn run(args: Args) -> Result<()> {
     let decayed = |f: &decay::Frame| f.degree.data().iter().filter(|&&d| d > decay::degree::GROWTH_THRESHOLD).count() as f64 / inside;
     manifest.metrics.insert("decayed_fraction".into(), json!(frames.iter().map(decayed).collect::<Vec<_>>()));
     manifest.metrics.insert("algorithm1_draws".into(), json!(prepared.draws));
-    manifest.metrics.insert("diffusion_steps".into(), json!(frames.iter().map(|f| f.steps).collect::<Vec<_>>()));
+    manifest
+        .metrics
+        .insert("diffusion_sigma_px".into(), json!(params.diffusion.spread * prepared.mask.width().max(prepared.mask.height()) as f32));
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.write(&dir.join("manifest.json"))?;
     out.commit()?;

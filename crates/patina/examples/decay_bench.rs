@@ -1,6 +1,7 @@
 //! Natural image decay benchmark (Hao et al. 2023): prints tables.
 //!
 //!     cargo run --release -p patina --example decay_bench [PHOTO MASK]
+//!     cargo run --release -p patina --example decay_bench --diffusion   (table 4 only)
 //!
 //! 1. A 2048 x 2048 decay texture per class (procedural generator).
 //! 2. Stationarity (eq. 10, fixed filter bank) at 256, 1024 and 2048: with
@@ -10,6 +11,8 @@
 //!    post, or PHOTO with MASK resized to it) with 8 frames, per class:
 //!    texture, shading, Algorithm 1 (prepare), then diffusion and
 //!    compositing per frame.
+//! 4. Decay diffusion alone (eq. 4, a disc mask, default spread): 8 frames
+//!    at 512, 1024 and 2048 px, and the 2048 / 1024 time ratio.
 
 mod common;
 
@@ -21,7 +24,29 @@ use std::time::Instant;
 const W: usize = 1152;
 const H: usize = 868;
 
+fn diffusion_table() {
+    use patina::decay::degree;
+    println!("| diffusion, 8 frames | 512 | 1024 | 2048 | 2048 / 1024 |");
+    println!("|---|---:|---:|---:|---:|");
+    let mut secs = Vec::new();
+    for side in [512usize, 1024, 2048] {
+        let c = side as f32 / 2.0;
+        let mask = patina::Mask::from_fn(side, side, |x, y| (x as f32 - c).powi(2) + (y as f32 - c).powi(2) < (0.45 * side as f32).powi(2));
+        let (mut d, _) = degree::initial(&mask, 0.2, 0.06, 1).expect("initial");
+        let t = Instant::now();
+        for k in 1..=8 {
+            degree::step(&mut d, &mask, None, &decay::Diffusion::default(), 1, k);
+        }
+        secs.push(t.elapsed().as_secs_f64());
+    }
+    println!("| seconds | {:.2} | {:.2} | {:.2} | {:.1} |\n", secs[0], secs[1], secs[2], secs[2] / secs[1]);
+}
+
 fn main() {
+    if std::env::args().nth(1).as_deref() == Some("--diffusion") {
+        return diffusion_table();
+    }
+    diffusion_table();
     println!("| class | 2048x2048 texture |");
     println!("|---|---:|");
     for class in DecayClass::ALL {

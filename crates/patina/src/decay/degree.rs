@@ -2,6 +2,7 @@
 //! (Hao et al. 2023, sections III-C2 and III-C4).
 
 use super::noise::Layer;
+use crate::image::filter::gaussian_blur;
 use crate::image::resample::{resize, Filter};
 use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};
@@ -94,7 +95,8 @@ pub fn channel_mean(painting: &Image) -> Image {
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct Diffusion {
     /// Diffusion length per frame, as a fraction of the longer image side:
-    /// the heat equation runs for time sigma^2 / (2 alpha) per frame.
+    /// the heat equation (eq. 4) runs for time sigma^2 / (2 alpha) per
+    /// frame, a Gaussian of that sigma ([`step`]).
     pub spread: f32,
     /// Upper bound of the self-growth Z ~ U(0, growth) added per frame
     /// where D > 0.25 (eq. 6).
@@ -107,42 +109,51 @@ impl Default for Diffusion {
     }
 }
 
-/// Coefficient alpha of dD/dt = alpha Lap D (eq. 4), in px^2 per unit time.
-const ALPHA: f32 = 1.0;
-/// Explicit time step: stable for the 5-point Laplacian when alpha dt <= 1/4.
-const DT: f32 = 0.24;
-
-/// One frame of decay diffusion (eqs. 4-7), in place: explicit finite
-/// differences of dD/dt = alpha r(x) Lap D for the frame's time (Neumann
-/// borders at the mask's edge, so decay neither leaks out nor drains), then
-/// self-growth D += r(x) Z with Z ~ U(0, growth) where D > 0.25, then
-/// D = max(D_new, D_old) so decay never retreats. `rate` (the user's
-/// regularisation map, 1 = normal speed, up to 2) scales both terms.
-/// Returns the number of finite-difference steps taken.
-pub fn step(degree: &mut Image, mask: &Mask, rate: Option<&Image>, params: &Diffusion, seed: u64, frame: u64) -> usize {
+/// One frame of decay diffusion (eqs. 4-7), in place.
+///
+/// Eq. 4, dD/dt = alpha Lap D, run for one frame's time T on the plane is
+/// exactly a Gaussian blur with sigma^2 = 2 alpha T, where sigma =
+/// `spread` x the longer side. Inside the mask it is solved as a
+/// normalised convolution, G*(D M) / G*M. Decay neither leaks out of the
+/// mask nor drains at its edge (the Neumann borders of the finite-difference
+/// scheme this replaces).
+///
+/// A rate r(x) (the user's regularisation map, 1 = normal speed, up to 2)
+/// runs the heat equation for r T. That is interpolated per pixel between
+/// D (r = 0), the sigma blur (r = 1) and the sigma sqrt(2) blur (r = 2).
+///
+/// Then comes self-growth, D += r(x) Z with Z ~ U(0, growth) where
+/// D > 0.25. Last, D = max(D_new, D_old), so decay never retreats.
+///
+/// Simplification: the normalised convolution carries decay across a
+/// background gap narrower than about sigma between two parts of the mask,
+/// which exact Neumann diffusion would not. In exchange, the cost is that
+/// of two wide blurs ([`gaussian_blur`] on a shrunken copy), linear in the
+/// pixel count. The explicit scheme needed (sigma^2 / 0.5) steps of the
+/// whole image, growing with the 4th power of the side: 86 s per frame at
+/// 2048 px.
+pub fn step(degree: &mut Image, mask: &Mask, rate: Option<&Image>, params: &Diffusion, seed: u64, frame: u64) {
     let (w, h) = mask.size();
     let sigma = params.spread * w.max(h) as f32;
-    let steps = ((sigma * sigma / (2.0 * ALPHA * DT)).ceil() as usize).max(1);
     let old = degree.clone();
-    let mut next = degree.clone();
     let bits = mask.bits();
     let rate_at = |i: usize| rate.map_or(1.0, |r| r.data()[i]);
-    for _ in 0..steps {
-        let cur = degree.data();
-        next.data_mut().par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, out) in row.iter_mut().enumerate() {
-                let i = y * w + x;
-                if !bits[i] {
-                    continue;
-                }
-                let c = cur[i];
-                let nb = |ok: bool, j: usize| if ok && bits[j] { cur[j] } else { c };
-                let lap =
-                    nb(x > 0, i.wrapping_sub(1)) + nb(x + 1 < w, i + 1) + nb(y > 0, i.wrapping_sub(w)) + nb(y + 1 < h, i + w) - 4.0 * c;
-                *out = c + ALPHA * DT * rate_at(i) * lap;
-            }
+    if sigma > 0.0 {
+        let inside = Image::from_fn(w, h, 1, |x, y, p| p[0] = f32::from(u8::from(bits[y * w + x])));
+        let masked = Image::from_fn(w, h, 1, |x, y, p| p[0] = if bits[y * w + x] { old.at(x, y, 0) } else { 0.0 });
+        let diffused = |s: f32| -> Vec<f32> {
+            let (num, den) = (gaussian_blur(&masked, s), gaussian_blur(&inside, s));
+            num.data().iter().zip(den.data()).map(|(a, b)| if *b > 1e-6 { a / b } else { 0.0 }).collect()
+        };
+        let once = diffused(sigma);
+        let twice = (0..w * h).any(|i| bits[i] && rate_at(i) > 1.0).then(|| diffused(sigma * std::f32::consts::SQRT_2));
+        degree.data_mut().par_iter_mut().enumerate().filter(|(i, _)| bits[*i]).for_each(|(i, d)| {
+            let r = rate_at(i).clamp(0.0, 2.0);
+            *d = match &twice {
+                Some(t) if r > 1.0 => once[i] + (r - 1.0) * (t[i] - once[i]),
+                _ => *d + r * (once[i] - *d),
+            };
         });
-        std::mem::swap(degree, &mut next);
     }
     degree.data_mut().par_chunks_mut(w).zip(old.data().par_chunks(w)).enumerate().for_each(|(y, (row, before))| {
         let mut g = rng::generator(seed, &[0x96, frame, y as u64]);
@@ -157,7 +168,6 @@ pub fn step(degree: &mut Image, mask: &Mask, rate: Option<&Image>, params: &Diff
             *d = d.clamp(0.0, 1.0).max(b);
         }
     });
-    steps
 }
 
 #[cfg(test)]
@@ -180,6 +190,58 @@ mod tests {
                 assert!(*m || *v == 0.0);
             }
         }
+    }
+
+    /// The finite-difference heat equation with Neumann borders at the
+    /// mask's edge, run for time sigma^2 / 2: the reference [`step`]'s
+    /// normalised convolution stands in for.
+    fn explicit_heat(d: &Image, mask: &Mask, sigma: f32) -> Image {
+        let (w, h) = mask.size();
+        let dt = 0.24f32;
+        let steps = (sigma * sigma / (2.0 * dt)).ceil() as usize;
+        let bits = mask.bits();
+        let mut cur = d.clone();
+        for _ in 0..steps {
+            let prev = cur.clone();
+            let c = prev.data();
+            for y in 0..h {
+                for x in 0..w {
+                    let i = y * w + x;
+                    if !bits[i] {
+                        continue;
+                    }
+                    let nb = |ok: bool, j: usize| if ok && bits[j] { c[j] } else { c[i] };
+                    let lap = nb(x > 0, i.wrapping_sub(1)) + nb(x + 1 < w, i + 1) + nb(y > 0, i.wrapping_sub(w)) + nb(y + 1 < h, i + w)
+                        - 4.0 * c[i];
+                    cur.data_mut()[i] = c[i] + dt * lap;
+                }
+            }
+        }
+        cur
+    }
+
+    #[test]
+    fn diffusion_matches_the_heat_equation_inside_the_mask() {
+        // Spots of decay in a disc; one frame of diffusion without growth
+        // against the explicit finite-difference solution (measured: the
+        // mean error is under 5% of the mean change).
+        let mask = disc(80, 60);
+        let (d0, _) = initial(&mask, 0.2, 0.15, 4).unwrap();
+        let params = Diffusion { spread: 0.06, growth: 0.0 };
+        let mut d = d0.clone();
+        step(&mut d, &mask, None, &params, 1, 1);
+        let want = explicit_heat(&d0, &mask, 0.06 * 80.0);
+        let (mut err, mut spread, mut n) = (0f32, 0f32, 0f32);
+        for (i, &inside) in mask.bits().iter().enumerate() {
+            if inside {
+                // `step` keeps the max with the old map; so does the reference.
+                let r = want.data()[i].max(d0.data()[i]);
+                err += (d.data()[i] - r).abs();
+                spread += (r - d0.data()[i]).abs();
+                n += 1.0;
+            }
+        }
+        assert!(err / n < 0.1 * spread / n, "mean error {} vs mean change {}", err / n, spread / n);
     }
 
     #[test]

@@ -88,8 +88,6 @@ pub struct Frame {
     pub degree: Image,
     /// The decayed photo.
     pub image: Image,
-    /// Finite-difference steps taken to reach this frame from the last.
-    pub steps: usize,
 }
 
 /// The inputs of [`prepare`] besides the photo.
@@ -180,10 +178,11 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
     let mut degree = prep.degree.clone();
     let mut out = Vec::with_capacity(frames);
     for k in 0..frames {
-        let steps =
-            if k == 0 { 0 } else { degree::step(&mut degree, &prep.mask, prep.rate.as_ref(), &prep.params.diffusion, seed, k as u64) };
+        if k > 0 {
+            degree::step(&mut degree, &prep.mask, prep.rate.as_ref(), &prep.params.diffusion, seed, k as u64);
+        }
         let image = composite::composite(&prep.photo, &prep.photo_lab, &prep.texture_lab, &prep.onset, &prep.shading, &degree);
-        out.push(Frame { degree: degree.clone(), image, steps });
+        out.push(Frame { degree: degree.clone(), image });
         if let Some(p) = progress {
             p(k as u64 + 1, frames as u64);
         }
