@@ -73,26 +73,36 @@ fn zero_degree_returns_the_input_and_full_degree_the_shaded_texture() {
     let out = composite(&input, &lab_in, &lab_tex, &onset, &prep.shading, &zero);
     assert_eq!(out.data(), input.data());
     // At D = 1 every texel is the texture's colour under the object's
-    // shading: the texture's hue (ab) exactly, and darker on the
-    // cylinder's dark side than on its lit side.
+    // shading: the texture's hue exactly, darker and no more saturated on
+    // the cylinder's dark side than on its lit side.
     let one = Image::from_fn(W, H, 1, |x, y, p| p[0] = if mask.get(x, y) { 1.0 } else { 0.0 });
     let full = to_lab(&composite(&input, &lab_in, &lab_tex, &onset, &prep.shading, &one));
-    let (mut dark, mut lit, mut hue_error) = (0.0, 0.0, 0.0);
+    let (mut dark, mut lit, mut dark_chroma, mut lit_chroma, mut hue_error, mut n) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let chroma = |p: &[f32]| (p[1] * p[1] + p[2] * p[2]).sqrt();
     for y in 12..116 {
         for x in 30..130 {
             let (o, t) = (full.pixel(x, y), lab_tex.pixel(x, y));
-            hue_error += ((o[1] - t[1]).abs() + (o[2] - t[2]).abs()) / (2.0 * 100.0 * 104.0);
-            let ratio = o[0] / t[0].max(1.0);
+            if chroma(t) > 5.0 && chroma(o) > 2.0 {
+                let d = (o[2].atan2(o[1]) - t[2].atan2(t[1])).abs();
+                hue_error += d.min(std::f32::consts::TAU - d);
+                n += 1.0;
+            }
+            let (ratio, c) = (o[0] / t[0].max(1.0), chroma(o) / chroma(t).max(1.0));
             if x < 45 {
                 dark += ratio;
+                dark_chroma += c;
             } else if (70..90).contains(&x) {
                 lit += ratio;
+                lit_chroma += c;
             }
         }
     }
-    assert!(lit / (20.0 * 104.0) > 1.3 * dark / (15.0 * 104.0), "shading not applied: lit {lit} dark {dark}");
-    // ab is the texture's, up to sRGB gamut clipping in the shadows.
-    assert!(hue_error < 1.5, "mean ab error {hue_error}");
+    let (dark, lit) = (dark / (15.0 * 104.0), lit / (20.0 * 104.0));
+    let (dark_chroma, lit_chroma) = (dark_chroma / (15.0 * 104.0), lit_chroma / (20.0 * 104.0));
+    assert!(lit > 1.3 * dark, "shading not applied: lit {lit} dark {dark}");
+    assert!(dark_chroma < 0.85 * lit_chroma, "shadow saturation: chroma ratio dark {dark_chroma} lit {lit_chroma}");
+    // The hue is the texture's, up to sRGB gamut clipping in the shadows.
+    assert!(hue_error / n < 0.1, "mean hue error {} rad", hue_error / n);
 }
 
 #[test]

@@ -1,13 +1,20 @@
 //! Compositing a decay texture into the photo (Hao et al. 2023, section
 //! III-C3, eq. 3), in CIE Lab:
 //!
-//! O_L = w T_L S + (1 - w) I_L,  O_ab = w T_ab + (1 - w) I_ab.
+//! O_L = w T_L s + (1 - w) I_L,  O_ab = w T_ab s + (1 - w) I_ab,
+//!
+//! with s = S^(1/3) (S is a ratio of linear luminance; Lab goes as its
+//! cube root).
 //!
 //! The paper writes O_L = (D T_L + (1 - D) I_L) S; since I already carries
 //! its shading, that form darkens the photo twice and D = 0 would not give
 //! the input back. Writing I_L = R_L S and applying S once, to the blend of
 //! T_L and the reflectance R_L, gives the line above: the texture takes the
-//! object's shading and D = 0 returns the input unchanged.
+//! object's shading and D = 0 returns the input unchanged. The paper
+//! leaves ab unshaded, which turns shadows into saturated colour (rust on
+//! a dark flank read as candy red): a surface R under shading S has
+//! a = 500 ((X_R S)^(1/3) - (Y_R S)^(1/3)) = s a_R, so ab is shaded by s
+//! like L.
 //!
 //! The blend weight w is where patina adds to the paper: instead of the
 //! degree D itself, w = smoothstep(onset - 0.04, onset + 0.04, D) with the
@@ -102,7 +109,7 @@ pub fn composite(photo: &Image, photo_lab: &Image, texture_lab: &Image, onset: &
             let (p, t) = (&photo_lab.data()[i * 3..i * 3 + 3], &texture_lab.data()[i * 3..i * 3 + 3]);
             // S is a ratio of linear luminance; L* goes as Y^(1/3).
             let s = shading.data()[i].cbrt();
-            let lab = [wt * t[0] * s + (1.0 - wt) * p[0], wt * t[1] + (1.0 - wt) * p[1], wt * t[2] + (1.0 - wt) * p[2]];
+            let lab = [wt * t[0] * s + (1.0 - wt) * p[0], wt * t[1] * s + (1.0 - wt) * p[1], wt * t[2] * s + (1.0 - wt) * p[2]];
             let rgb = lab_pixel_to_srgb(lab);
             for c in 0..3 {
                 px[c] = rgb[c].clamp(0.0, 1.0);
