@@ -206,3 +206,57 @@ fn a_gray_photo_decays_in_colour_and_keeps_its_values_outside_the_mask() {
     }
     assert!(coloured > mask.count() / 20, "rust should bring colour: {coloured} pixels");
 }
+
+#[test]
+fn a_matte_decay_drops_the_photos_highlight_and_keeps_its_shading() {
+    // The painted cylinder with a glossy highlight: a narrow band where the
+    // photo is up to 3x brighter than its diffuse shading.
+    let mask = object();
+    let diffuse = |x: usize| {
+        let u = (x as f32 - 30.0) / 100.0 * std::f32::consts::PI;
+        0.25 + 0.75 * (u - 0.4).sin().max(0.0)
+    };
+    let highlight = |x: usize| 2.0 * (-((x as f32 - 88.0) / 3.0).powi(2)).exp();
+    let input = Image::from_fn(W, H, 3, |x, y, p| {
+        if mask.get(x, y) {
+            let (d, s) = (diffuse(x), highlight(x));
+            let c = [0.3f32, 0.3, 0.32].map(|a| linear_to_srgb((a * d + 0.3 * s).min(1.0)));
+            p.copy_from_slice(&c);
+        } else {
+            p.fill(0.45 + 0.2 * value_noise(7, x as f32 / 5.0, y as f32 / 5.0));
+        }
+    });
+    let prep = decay::prepare(&input, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(DecayClass::Rust), 1).unwrap();
+    let (lab_in, lab_tex) = (to_lab(&input), to_lab(&prep.texture));
+    let onset = prep.texture.select_channels(3..4);
+    let one = Image::from_fn(W, H, 1, |x, y, p| p[0] = if mask.get(x, y) { 1.0 } else { 0.0 });
+    let out = to_lab(&composite(&input, &lab_in, &lab_tex, &onset, &prep.shading, &one));
+    // Mean L* per column of the decayed cylinder.
+    let column = |x: usize| (12..116).map(|y| out.at(x, y, 0)).sum::<f32>() / 104.0;
+    let cols: Vec<f32> = (30..130).map(column).collect();
+    let mean = cols.iter().sum::<f32>() / cols.len() as f32;
+    let peak = (85..92).map(column).sum::<f32>() / 7.0;
+    assert!(peak / mean <= 1.6, "the highlight stays on the rust: {peak} vs the mean {mean}");
+    // The decayed luminance follows the diffuse shading (L* ~ its cube
+    // root). The rust texture has its own large-scale light and dark
+    // (its column means correlate -0.5 with the shading here), so the
+    // shading is read as the decayed L* over the texture's.
+    let shade: Vec<f32> = (30..130).map(|x| diffuse(x).cbrt()).collect();
+    let texture_cols: Vec<f32> = (30..130).map(|x| (12..116).map(|y| lab_tex.at(x, y, 0)).sum::<f32>() / 104.0).collect();
+    let applied: Vec<f32> = cols.iter().zip(&texture_cols).map(|(a, b)| a / b.max(1.0)).collect();
+    let r = pearson(&applied, &shade);
+    assert!(r >= 0.8, "shading applied to the decay vs the diffuse shading: r = {r}");
+    // Without the gloss model the highlight would have stayed.
+    let glossy = to_lab(&composite(&input, &lab_in, &lab_tex, &onset, &decay::shading::estimate(&input, &mask, &Default::default()), &one));
+    let glossy_peak = (85..92).map(|x| (12..116).map(|y| glossy.at(x, y, 0)).sum::<f32>() / 104.0).sum::<f32>() / 7.0;
+    assert!(glossy_peak > peak * 1.1, "the test's highlight is too weak to matter: {glossy_peak} vs {peak}");
+}
+
+fn pearson(a: &[f32], b: &[f32]) -> f32 {
+    let n = a.len() as f32;
+    let (ma, mb) = (a.iter().sum::<f32>() / n, b.iter().sum::<f32>() / n);
+    let cov: f32 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
+    let va: f32 = a.iter().map(|x| (x - ma).powi(2)).sum();
+    let vb: f32 = b.iter().map(|y| (y - mb).powi(2)).sum();
+    cov / (va * vb).sqrt().max(1e-12)
+}

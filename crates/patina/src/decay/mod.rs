@@ -142,7 +142,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         composite::transfer_colour(&mut texture_lab, &photo_lab, &mask, strength);
     }
     let onset = texture.select_channels(3..4);
-    let shading = shading::estimate(photo, &mask, &params.shading);
+    let shading = shading::with_gloss(&shading::estimate(photo, &mask, &params.shading), &mask, params.class.gloss());
     let (degree, draws) = match inputs.degree {
         Some(painting) => (degree::from_painting(painting, &mask)?, 0),
         None => degree::initial(&mask, params.area, params.continuity, seed)?,

@@ -44,6 +44,17 @@ impl DecayClass {
     /// Every class, in CLI order.
     pub const ALL: [DecayClass; 4] = [DecayClass::Rust, DecayClass::Peeling, DecayClass::Cracked, DecayClass::Mossy];
 
+    /// How much of the photo's specular highlight the decayed material
+    /// keeps ([`super::shading::with_gloss`]): oxide and moss are matte;
+    /// peeling and crazed paint keep part of the paint's sheen.
+    pub fn gloss(self) -> f32 {
+        match self {
+            DecayClass::Rust | DecayClass::Mossy => 0.0,
+            DecayClass::Peeling => 0.3,
+            DecayClass::Cracked => 0.5,
+        }
+    }
+
     /// The class's name on the command line.
     pub fn name(self) -> &'static str {
         match self {
