@@ -316,19 +316,6 @@ const SEAM_OUTLIER: f32 = 3.0;
 /// of a key whose mean it is blended on ([`synthesize`]).
 const KEY_STEP: usize = 8;
 
-/// The accumulated change of the input at each of `n` frames (0 at the
-/// first): the sum of `change` (frames past its end count as unchanging),
-/// each step at least `floor` x the mean change.
-fn accumulated_change(n: usize, change: &[f64], floor: f64) -> Vec<f64> {
-    let mean = change.iter().sum::<f64>() / change.len().max(1) as f64;
-    let floor = floor * mean + 1e-12;
-    let mut at = vec![0f64; n];
-    for t in 1..n {
-        at[t] = at[t - 1] + change.get(t - 1).copied().unwrap_or(0.0).max(floor);
-    }
-    at
-}
-
 /// The input's pace for time jitter: each frame's time on a clock that
 /// runs one unit per frame while the sequence changes at its average pace
 /// or slower, and faster while it changes faster (the accumulated change
@@ -338,8 +325,12 @@ fn accumulated_change(n: usize, change: &[f64], floor: f64) -> Vec<f64> {
 /// frames), where blocks drawn from different times would differ everywhere.
 pub fn pace(frames: &[Image]) -> Vec<f32> {
     let change = frame_changes(frames);
-    let mean = change.iter().sum::<f64>() / change.len().max(1) as f64;
-    accumulated_change(frames.len(), &change, 1.0).iter().map(|a| (a / mean.max(1e-12)) as f32).collect()
+    let mean = (change.iter().sum::<f64>() / change.len().max(1) as f64).max(1e-12);
+    let mut clock = vec![0f32; frames.len()];
+    for t in 1..frames.len() {
+        clock[t] = clock[t - 1] + (change[t - 1] / mean).max(1.0) as f32;
+    }
+    clock
 }
 
 /// Mean absolute change of each frame to the next.
