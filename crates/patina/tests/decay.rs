@@ -260,3 +260,20 @@ fn pearson(a: &[f32], b: &[f32]) -> f32 {
     let vb: f32 = b.iter().map(|y| (y - mb).powi(2)).sum();
     cov / (va * vb).sqrt().max(1e-12)
 }
+
+#[test]
+fn the_visible_decay_grows_evenly_over_the_frames() {
+    let (input, mask) = (photo(), object());
+    let prep = decay::prepare(&input, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(DecayClass::Rust), 5).unwrap();
+    let frames = decay::sequence(&prep, 8, 5, None).unwrap();
+    let onset = prep.texture.select_channels(3..4);
+    let shares: Vec<f64> = frames.iter().map(|f| decay::visible_share(&f.degree, &onset, &mask)).collect();
+    let total = shares[7] - shares[0];
+    assert!(total > 0.2, "the decay barely grows: {shares:?}");
+    // Each of the 7 steps brings about a seventh of the growth (the
+    // simulation alone brings most of it in the first three).
+    for w in shares.windows(2) {
+        let step = (w[1] - w[0]) / total;
+        assert!((0.5 / 7.0..=2.0 / 7.0).contains(&step), "uneven growth: {shares:?}");
+    }
+}

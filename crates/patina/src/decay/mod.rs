@@ -175,17 +175,69 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
     if frames == 0 {
         return Err(Error::invalid("--frames must be at least 1"));
     }
-    let mut degree = prep.degree.clone();
+    // Simulate every frame's degree map (eqs. 4-7), then re-time them so
+    // the visible share grows evenly (see `paced`).
+    let mut simulated = vec![prep.degree.clone()];
+    for k in 1..frames {
+        let mut d = simulated[k - 1].clone();
+        degree::step(&mut d, &prep.mask, prep.rate.as_ref(), &prep.params.diffusion, seed, k as u64);
+        simulated.push(d);
+    }
     let mut out = Vec::with_capacity(frames);
     for k in 0..frames {
-        if k > 0 {
-            degree::step(&mut degree, &prep.mask, prep.rate.as_ref(), &prep.params.diffusion, seed, k as u64);
-        }
+        let degree = paced(&simulated, k, &prep.onset, &prep.mask);
         let image = composite::composite(&prep.photo, &prep.photo_lab, &prep.texture_lab, &prep.onset, &prep.shading, &degree);
-        out.push(Frame { degree: degree.clone(), image });
+        out.push(Frame { degree, image });
         if let Some(p) = progress {
             p(k as u64 + 1, frames as u64);
         }
     }
     Ok(out)
+}
+
+/// The share of the object the texture covers at `degree`: the mean
+/// composite weight ([`composite::weight`]) over the mask.
+pub fn visible_share(degree: &Image, onset: &Image, mask: &Mask) -> f64 {
+    let (mut sum, mut n) = (0f64, 0usize);
+    for ((d, o), &m) in degree.data().iter().zip(onset.data()).zip(mask.bits()) {
+        if m {
+            sum += f64::from(composite::weight(*d, *o));
+            n += 1;
+        }
+    }
+    sum / n.max(1) as f64
+}
+
+/// Frame `k`'s degree map, re-timed so the visible share grows evenly
+/// from the first simulated map's to the last's. Diffusion and growth
+/// spread the degree fast at first and then saturate (99% of the mask by
+/// frame 3 of 8), while what shows follows the texture's onsets; so frame
+/// k shows the simulation at the fractional time whose visible share is
+/// k/(K-1) of the way, interpolating between consecutive simulated maps.
+/// Each pixel still only grows, as the simulated maps do.
+fn paced(simulated: &[Image], k: usize, onset: &Image, mask: &Mask) -> Image {
+    let last = simulated.len() - 1;
+    if last == 0 || k == 0 || k == last {
+        return simulated[k.min(last)].clone();
+    }
+    let at = |f: f64| -> Image {
+        let i = (f.floor() as usize).min(last - 1);
+        let w = (f - i as f64).clamp(0.0, 1.0) as f32;
+        let (a, b) = (&simulated[i], &simulated[i + 1]);
+        let mut d = a.clone();
+        d.data_mut().iter_mut().zip(b.data()).for_each(|(x, y)| *x += w * (y - *x));
+        d
+    };
+    let (v0, v1) = (visible_share(&simulated[0], onset, mask), visible_share(&simulated[last], onset, mask));
+    let target = v0 + (v1 - v0) * k as f64 / last as f64;
+    let (mut lo, mut hi) = (0.0f64, last as f64);
+    for _ in 0..24 {
+        let mid = 0.5 * (lo + hi);
+        if visible_share(&at(mid), onset, mask) < target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    at(hi)
 }
