@@ -183,9 +183,10 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
         degree::step(&mut d, &prep.mask, prep.rate.as_ref(), &prep.params.diffusion, seed, k as u64);
         simulated.push(d);
     }
+    let ends = (visible_share(&simulated[0], &prep.onset, &prep.mask), visible_share(&simulated[frames - 1], &prep.onset, &prep.mask));
     let mut out = Vec::with_capacity(frames);
     for k in 0..frames {
-        let degree = paced(&simulated, k, &prep.onset, &prep.mask);
+        let degree = paced(&simulated, k, ends, &prep.onset, &prep.mask);
         let image = composite::composite(&prep.photo, &prep.photo_lab, &prep.texture_lab, &prep.onset, &prep.shading, &degree);
         out.push(Frame { degree, image });
         if let Some(p) = progress {
@@ -198,10 +199,15 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
 /// The share of the object the texture covers at `degree`: the mean
 /// composite weight ([`composite::weight`]) over the mask.
 pub fn visible_share(degree: &Image, onset: &Image, mask: &Mask) -> f64 {
+    mean_weight(degree.data().iter().copied(), onset, mask)
+}
+
+/// The mean composite weight over the mask of the per-pixel `degrees`.
+fn mean_weight(degrees: impl Iterator<Item = f32>, onset: &Image, mask: &Mask) -> f64 {
     let (mut sum, mut n) = (0f64, 0usize);
-    for ((d, o), &m) in degree.data().iter().zip(onset.data()).zip(mask.bits()) {
+    for ((d, o), &m) in degrees.zip(onset.data()).zip(mask.bits()) {
         if m {
-            sum += f64::from(composite::weight(*d, *o));
+            sum += f64::from(composite::weight(d, *o));
             n += 1;
         }
     }
@@ -215,29 +221,33 @@ pub fn visible_share(degree: &Image, onset: &Image, mask: &Mask) -> f64 {
 /// k shows the simulation at the fractional time whose visible share is
 /// k/(K-1) of the way, interpolating between consecutive simulated maps.
 /// Each pixel still only grows, as the simulated maps do.
-fn paced(simulated: &[Image], k: usize, onset: &Image, mask: &Mask) -> Image {
+fn paced(simulated: &[Image], k: usize, (v0, v1): (f64, f64), onset: &Image, mask: &Mask) -> Image {
     let last = simulated.len() - 1;
     if last == 0 || k == 0 || k == last {
         return simulated[k.min(last)].clone();
     }
-    let at = |f: f64| -> Image {
+    // Simulated time f: between maps i and i + 1, with weight w on the later.
+    let split = |f: f64| {
         let i = (f.floor() as usize).min(last - 1);
-        let w = (f - i as f64).clamp(0.0, 1.0) as f32;
-        let (a, b) = (&simulated[i], &simulated[i + 1]);
-        let mut d = a.clone();
-        d.data_mut().iter_mut().zip(b.data()).for_each(|(x, y)| *x += w * (y - *x));
-        d
+        (i, (f - i as f64).clamp(0.0, 1.0) as f32)
     };
-    let (v0, v1) = (visible_share(&simulated[0], onset, mask), visible_share(&simulated[last], onset, mask));
+    let share_at = |f: f64| {
+        let (i, w) = split(f);
+        let between = simulated[i].data().iter().zip(simulated[i + 1].data()).map(|(x, y)| x + w * (y - x));
+        mean_weight(between, onset, mask)
+    };
     let target = v0 + (v1 - v0) * k as f64 / last as f64;
     let (mut lo, mut hi) = (0.0f64, last as f64);
     for _ in 0..24 {
         let mid = 0.5 * (lo + hi);
-        if visible_share(&at(mid), onset, mask) < target {
+        if share_at(mid) < target {
             lo = mid;
         } else {
             hi = mid;
         }
     }
-    at(hi)
+    let (i, w) = split(hi);
+    let mut d = simulated[i].clone();
+    d.data_mut().iter_mut().zip(simulated[i + 1].data()).for_each(|(x, y)| *x += w * (y - *x));
+    d
 }

@@ -169,6 +169,19 @@ pub fn natural_cmp(a: &str, b: &str) -> Ordering {
     }
 }
 
+/// The per-pixel mean of `frames` (one size and channel count), summed in
+/// f64.
+pub fn temporal_mean(frames: &[Image]) -> Result<Image> {
+    use rayon::prelude::*;
+    let first = frames.first().ok_or_else(|| Error::invalid("the sequence has no frames"))?;
+    let mut sum = vec![0f64; first.data().len()];
+    for f in frames {
+        sum.par_iter_mut().zip(f.data().par_iter()).for_each(|(s, v)| *s += f64::from(*v));
+    }
+    let n = frames.len() as f64;
+    Image::from_data(first.width(), first.height(), first.channels(), sum.iter().map(|s| (s / n) as f32).collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

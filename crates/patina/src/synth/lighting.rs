@@ -99,16 +99,10 @@ pub fn relight(detail: &Image, sep: &Separation, how: Relight) -> Result<Image> 
 /// mean luminance and field serve flat and stretched re-lighting) and the
 /// frames' detail layers.
 pub fn separate_sequence(frames: &[Image]) -> Result<(Separation, Vec<Image>)> {
-    let first = frames.first().ok_or_else(|| Error::invalid("the sequence has no frames"))?;
+    let mean_frame = crate::image::sequence::temporal_mean(frames)?;
     let n = frames.len();
-    let mut sum = vec![0f64; first.data().len()];
-    for f in frames {
-        sum.par_iter_mut().zip(f.data().par_iter()).for_each(|(s, v)| *s += f64::from(*v));
-    }
-    let mean_frame =
-        Image::from_data(first.width(), first.height(), first.channels(), sum.iter().map(|s| (s / n as f64) as f32).collect())?;
     let sep = separate(&mean_frame);
-    let drift_sigma = first.width().min(first.height()) as f32 * DRIFT_SIGMA;
+    let drift_sigma = mean_frame.width().min(mean_frame.height()) as f32 * DRIFT_SIGMA;
     let drifts: Vec<Vec<f32>> =
         frames.par_iter().map(|f| drift_field(&luminance(f), drift_sigma).map(Image::into_data)).collect::<Result<_>>()?;
     let mut mean_drift = vec![0f32; drifts[0].len()];

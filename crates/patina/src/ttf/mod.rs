@@ -179,18 +179,23 @@ pub fn synthesize(
     progress: Option<Progress>,
 ) -> Result<Ttf> {
     let (n, out_frames) = check_input(frames, (width, height), params, rate)?;
-    let original = frames;
     let report = |done: u64| {
         if let Some(p) = progress {
             p(done, 100);
         }
+    };
+    // The input's large-scale variation, measured once: `Auto` decides on
+    // it and the lighting report states it.
+    let variation = match params.lighting {
+        SequenceLighting::Keep => None,
+        _ => Some(input_nonstationarity(frames)?),
     };
     let relight = match params.lighting {
         SequenceLighting::Keep => Relight::Keep,
         SequenceLighting::Flat => Relight::Flat,
         SequenceLighting::Stretch => Relight::Stretch,
         SequenceLighting::Auto
-            if frames[0].width().min(frames[0].height()) >= AUTO_MIN_SIDE && input_nonstationarity(frames)? > AUTO_LIGHTING =>
+            if frames[0].width().min(frames[0].height()) >= AUTO_MIN_SIDE && variation.is_some_and(|v| v > AUTO_LIGHTING) =>
         {
             Relight::Flat
         }
@@ -296,7 +301,7 @@ pub fn synthesize(
             relight_sequence(&mut out, sep, relight)?;
             Some(LightingReport {
                 relight: relight.name(),
-                exemplar_nonstationarity: input_nonstationarity(original)?,
+                exemplar_nonstationarity: variation.unwrap_or_default(),
                 detail_nonstationarity: input_nonstationarity(detail)?,
                 sigma: sep.sigma,
             })
@@ -372,13 +377,7 @@ fn check_input(frames: &[Image], (width, height): (usize, usize), params: &TtfPa
 /// Large-scale variation ([`crate::metrics::nonstationarity`]) of the
 /// frames' temporal mean: the lighting every frame shares.
 pub fn input_nonstationarity(frames: &[Image]) -> Result<f32> {
-    let first = frames.first().ok_or_else(|| Error::invalid("the sequence has no frames"))?;
-    let k = 1.0 / frames.len() as f32;
-    let mut mean = Image::new(first.width(), first.height(), first.channels());
-    for f in frames {
-        mean.data_mut().par_iter_mut().zip(f.data().par_iter()).for_each(|(m, v)| *m += k * v);
-    }
-    Ok(crate::metrics::nonstationarity(&mean))
+    Ok(crate::metrics::nonstationarity(&crate::image::sequence::temporal_mean(frames)?))
 }
 
 /// Per-frame weights that give every frame the same say in the block cost.
