@@ -5,7 +5,7 @@
 use patina::image::color::luminance;
 use patina::image::filter::gaussian_blur;
 use patina::image::{Image, Mask};
-use patina::metrics::ks_distance;
+use patina::metrics::{grid_peak, ks_distance, roc_auc};
 use patina::samples::value_noise;
 use patina::stone::{self, StoneParams};
 
@@ -17,28 +17,66 @@ fn slab() -> Mask {
     Mask::from_fn(W, H, |x, y| (24..W - 24).contains(&x) && (24..H - 24).contains(&y))
 }
 
-/// Carved relief, lit from the top left: grooves (a letter-like lattice of
-/// bars over a fifth of the slab, like an inscription) with a bright upper and dark lower lip, plus per-pixel grain; the
+/// The carved field, where the inscription is.
+fn carved(i: usize) -> bool {
+    (60..132).contains(&(i % W)) && (52..108).contains(&(i / W))
+}
+
+/// Letter-like strokes: 22 segments at random places, lengths and
+/// multiples of 45 degrees, inside the carved field.
+fn strokes() -> Vec<((f32, f32), (f32, f32))> {
+    use patina::rng::Rng;
+    let mut rng = patina::rng::generator(19, &[]);
+    (0..22)
+        .map(|_| {
+            let (x, y) = (64.0 + rng.gen::<f32>() * 64.0, 56.0 + rng.gen::<f32>() * 48.0);
+            let angle = (rng.gen::<f32>() * 8.0).floor() * std::f32::consts::FRAC_PI_4;
+            let len = 8.0 + rng.gen::<f32>() * 12.0;
+            let end = ((x + len * angle.cos()).clamp(62.0, 130.0), (y + len * angle.sin()).clamp(54.0, 106.0));
+            ((x, y), end)
+        })
+        .collect()
+}
+
+/// Depth of the carving at (x, y): grooves of Gaussian profile (sigma 3
+/// px) along the strokes, merged smoothly where they meet, so the carving
+/// lives at scales above the per-pixel grain.
+fn depth(strokes: &[((f32, f32), (f32, f32))], x: f32, y: f32) -> f32 {
+    let dist = |&((ax, ay), (bx, by)): &((f32, f32), (f32, f32))| {
+        let (dx, dy) = (bx - ax, by - ay);
+        let t = (((x - ax) * dx + (y - ay) * dy) / (dx * dx + dy * dy).max(1e-6)).clamp(0.0, 1.0);
+        ((x - ax - t * dx).powi(2) + (y - ay - t * dy).powi(2)).sqrt()
+    };
+    1.0 - (-strokes.iter().map(|s| (-(dist(s) / 4.2).powi(2)).exp()).sum::<f32>()).exp()
+}
+
+/// The grain: independent per-pixel noise, uniform in +-0.03.
+fn grain(x: usize, y: usize) -> f32 {
+    0.06 * ((patina::rng::derive(11, &[x as u64, y as u64]) >> 40) as f32 / (1u64 << 24) as f32 - 0.5)
+}
+
+/// Carved relief lit from the top left (grooves with a dark upper and a
+/// bright lower wall, darker at the bottom), plus per-pixel grain; the
 /// background is a mottled green.
 fn photo() -> Image {
-    let slab = slab();
+    let (slab, strokes) = (slab(), strokes());
     Image::from_fn(W, H, 3, |x, y, p| {
-        let grain = 0.08 * (value_noise(11, x as f32 * 1.7, y as f32 * 1.7) - 0.5);
         if slab.get(x, y) {
-            // Smooth groove profiles (a bright upper lip, a dark lower one), so
-            // the carving lives at scales above the per-pixel grain.
-            let groove = |u: usize, period: usize| {
-                let r = (u % period) as f32;
-                0.25 * (-((r - 5.0) / 2.0).powi(2)).exp() - 0.2 * (-((r - 10.0) / 2.4).powi(2)).exp()
-            };
-            let carve = if (56..104).contains(&y) && (60..132).contains(&x) { groove(x, 18) + groove(y, 22) } else { 0.0 };
-            let v = (0.55 + carve + grain).clamp(0.0, 1.0);
+            let (fx, fy) = (x as f32, y as f32);
+            let d = |dx: f32, dy: f32| depth(&strokes, fx + dx, fy + dy);
+            let shade = 0.9 * (d(-1.0, -1.0) - d(1.0, 1.0)) - 0.15 * d(0.0, 0.0);
+            let v = (0.55 + shade + grain(x, y)).clamp(0.0, 1.0);
             p.copy_from_slice(&[v, v * 0.97, v * 0.92]);
         } else {
             let m = value_noise(5, x as f32 / 6.0, y as f32 / 6.0);
             p.copy_from_slice(&[0.15 + 0.1 * m, 0.35 + 0.2 * m, 0.12 + 0.05 * m]);
         }
     })
+}
+
+/// The slab's grain alone, flat, as the ground truth for the grain band.
+fn grain_only() -> Image {
+    Image::from_fn(W, H, 3, |x, y, p| p.fill(0.55 + grain(x, y)))
 }
 
 /// Mean square of the band between two Gaussian scales, over `region`.
@@ -49,25 +87,66 @@ fn band_energy(img: &Image, region: &[usize], fine: f32, coarse: f32) -> f64 {
 }
 
 #[test]
-fn carvings_wear_smooth_over_time_while_the_grain_stays() {
+fn carvings_wear_away_while_the_grain_stays_and_no_lattice_appears() {
     let params = StoneParams { roughen: false, erosion: false, n: 400.0, ..Default::default() };
-    let prep = stone::prepare(&photo(), Some(&slab()), None, &params).unwrap();
-    let frames = stone::sequence(&prep, &[0.0, 25.0, 50.0, 100.0], 1, None).unwrap();
+    let input = photo();
+    let prep = stone::prepare(&input, Some(&slab()), None, &params).unwrap();
+    let frames = stone::sequence(&prep, &[0.0, 50.0, 100.0, 200.0], 1, None).unwrap();
     // The carved field is the ground truth for where weathering acts.
-    let carved = |i: usize| (60..132).contains(&(i % W)) && (56..104).contains(&(i / W));
     let busy: Vec<usize> = (0..W * H).filter(|&i| carved(i)).collect();
     let plain: Vec<usize> = (0..W * H).filter(|&i| slab().bits()[i] && !carved(i)).collect();
-    let mean_d = |px: &[usize]| px.iter().map(|&i| prep.tendency.data()[i]).sum::<f32>() / px.len() as f32;
-    assert!(mean_d(&busy) > 2.0 * mean_d(&plain), "tendency: carved {} vs plain {}", mean_d(&busy), mean_d(&plain));
-    let large: Vec<f64> = frames.iter().map(|f| band_energy(&f.image, &busy, 1.5, 5.0)).collect();
-    for pair in large.windows(2) {
-        assert!(pair[1] < pair[0], "large-scale detail must decrease with t: {large:?}");
+    let lines = strokes();
+    let grooves: Vec<usize> = busy.iter().copied().filter(|&i| depth(&lines, (i % W) as f32, (i / W) as f32) > 0.3).collect();
+    // The tendency tells the grooves from the plain slab.
+    let scores: Vec<f32> = grooves.iter().chain(&plain).map(|&i| prep.tendency.data()[i]).collect();
+    let labels: Vec<bool> = grooves.iter().map(|_| true).chain(plain.iter().map(|_| false)).collect();
+    let auc = roc_auc(&scores, &labels);
+    assert!(auc >= 0.9, "tendency AUC {auc}");
+    // The carving band (1.5 to 6 px) wears with t, to at most 3/4 at t = 200.
+    let carving: Vec<f64> = frames.iter().map(|f| band_energy(&f.image, &busy, 1.5, 6.0)).collect();
+    for pair in carving.windows(2) {
+        assert!(pair[1] < pair[0], "the carving must wear with t: {carving:?}");
     }
-    assert!(large[3] < 0.95 * large[0], "carvings barely softened: {large:?}");
-    let grain: Vec<f64> = frames.iter().map(|f| band_energy(&f.image, &busy, 0.0, 1.0)).collect();
-    for g in &grain {
-        assert!((g / grain[0] - 1.0).abs() <= 0.25, "fine grain must stay within 25%: {grain:?}");
+    assert!(carving[3] <= 0.75 * carving[0], "carving kept {:.2} at t = 200", carving[3] / carving[0]);
+    // The sub-pixel grain keeps at least 3/4 of its energy at every t. It is
+    // measured between the grooves of the carved field, where the stone
+    // wears (the patches there are at w < 0.6 by t = 200) but the
+    // grooves put nothing into the band: the grain alone is the truth.
+    let between: Vec<usize> = busy.iter().copied().filter(|&i| depth(&lines, (i % W) as f32, (i / W) as f32) < 0.02).collect();
+    let weights = stone::update::weights(&prep.tendency, &prep.mask, &prep.patches, (params.k, 200.0));
+    let mean_w = between.iter().map(|&i| weights.data()[i]).sum::<f32>() / between.len() as f32;
+    assert!(between.len() > 300 && mean_w < 0.6, "{} px between the grooves at w = {mean_w}", between.len());
+    let truth = band_energy(&grain_only(), &between, 0.0, 1.0);
+    let grooves = band_energy(&input, &between, 0.0, 1.0) - truth;
+    assert!(grooves.abs() < 0.1 * truth, "the test's grooves leak into the grain band: {grooves} vs {truth}");
+    for f in &frames {
+        let g = band_energy(&f.image, &between, 0.0, 1.0) / truth;
+        assert!(g >= 0.75, "t = {}: grain kept {g:.2}", f.t);
     }
+    // No lattice: the block-grid peak of the worn slab stays near the input's.
+    let inner = |img: &Image| img.crop(28, 28, W - 56, H - 56).unwrap();
+    let (before, after) = (grid_peak(&inner(&input)), grid_peak(&inner(&frames[3].image)));
+    assert!(after <= 1.5 * before, "grid peak {before} -> {after}");
+    eprintln!(
+        "carving kept {:.2}, grain kept {:.2}, grid peak {before:.2} -> {after:.2}, tendency AUC {auc:.2}",
+        carving[3] / carving[0],
+        band_energy(&frames[3].image, &between, 0.0, 1.0) / truth
+    );
+}
+
+#[test]
+fn the_form_keeps_its_luminance_histogram() {
+    let params = StoneParams { erosion: false, n: 400.0, ..Default::default() };
+    let (input, mask) = (photo(), slab());
+    let prep = stone::prepare(&input, Some(&mask), None, &params).unwrap();
+    let frames = stone::sequence(&prep, &[100.0], 2, None).unwrap();
+    let values = |img: &Image| {
+        let l = gaussian_blur(&luminance(img), prep.scale);
+        (0..W * H).filter(|&i| mask.bits()[i]).map(|i| l.data()[i]).collect::<Vec<f32>>()
+    };
+    assert_ne!(input.data(), frames[0].image.data(), "the frame should differ from the input");
+    let ks = ks_distance(&values(&input), &values(&frames[0].image));
+    assert!(ks <= 0.05, "KS distance {ks}");
 }
 
 #[test]
@@ -103,22 +182,6 @@ fn the_silhouette_erodes_monotonically_and_fastest_at_the_top() {
         (0..W * H).map(|i| (i % W, i / W)).filter(|&(x, y)| mask.get(x, y) && !last.mask.get(x, y)).collect();
     let green = removed.iter().filter(|&&(x, y)| last.image.at(x, y, 1) > last.image.at(x, y, 0) + 0.08).count();
     assert!(green * 10 >= removed.len() * 9, "{green} of {} eroded pixels look like background", removed.len());
-}
-
-#[test]
-fn the_luminance_histogram_matches_the_original() {
-    let params = StoneParams { erosion: false, n: 400.0, ..Default::default() };
-    let (input, mask) = (photo(), slab());
-    let prep = stone::prepare(&input, Some(&mask), None, &params).unwrap();
-    let frames = stone::sequence(&prep, &[100.0], 2, None).unwrap();
-    let values = |img: &Image| {
-        let l = luminance(img);
-        (0..W * H).filter(|&i| mask.bits()[i]).map(|i| (l.data()[i] * 255.0).round() / 255.0).collect::<Vec<f32>>()
-    };
-    let (before, after) = (values(&input), values(&frames[0].image));
-    assert_ne!(before, after, "the frame should differ from the input");
-    let ks = ks_distance(&before, &after);
-    assert!(ks <= 0.05, "KS distance {ks}");
 }
 
 #[test]

@@ -43,6 +43,10 @@ pub(crate) fn set_pixels(mask: &Mask) -> impl Iterator<Item = usize> + '_ {
     mask.bits().iter().enumerate().filter(|(_, &b)| b).map(|(i, _)| i)
 }
 
+/// Scale (px) of the grain/relief split: detail finer than this Gaussian
+/// is the finest band, whose energy weathering keeps.
+pub const GRAIN_SIGMA: f32 = 1.5;
+
 /// Gamma used to linearise LDR input (the paper's 2.2).
 pub const GAMMA: f32 = 2.2;
 
@@ -61,7 +65,10 @@ pub struct StoneParams {
     pub max_patch: f32,
     /// w_d of eq. (1).
     pub wd: f32,
-    /// k of eq. (2): w = exp(-k mean d t).
+    /// k of eq. (2): w = exp(-k mean d t). Default 0.02, twice the
+    /// paper's: with the paper's 0.01 the relief of a gravestone's letters
+    /// kept 3/4 of its amplitude at t = 100, the paper's "heavily
+    /// weathered", barely visible at 100% zoom.
     pub k: f32,
     /// nu: roughening weight beta = d^nu.
     pub nu: f32,
@@ -84,7 +91,7 @@ impl Default for StoneParams {
             n: 3200.0,
             max_patch: 4.0,
             wd: 1.0,
-            k: 0.01,
+            k: 0.02,
             nu: 3.0,
             roughen: true,
             erosion: true,
@@ -107,8 +114,15 @@ pub struct Prepared {
     pub patches: Vec<Patch>,
     /// Each patch's best-match offset c1 - c0 under eq. (1).
     pub offsets: Vec<(isize, isize)>,
-    /// The 4-neighbour Laplacian of `linear`, which eq. (2) blends at every t.
-    pub laplacian: Image,
+    /// The relief: `linear` without its finest band (a Gaussian of
+    /// [`GRAIN_SIGMA`]).
+    pub base: Image,
+    /// `linear - base`: the finest band, the stone's grain and the sharpest
+    /// carved edges. The patch update treats it apart ([`update::update`]).
+    pub grain: Image,
+    /// The patch scale (px): sqrt(object pixels / patches). The update
+    /// follows borrowed gradients up to this scale.
+    pub scale: f32,
     pub fractal: Fractal,
     pub params: StoneParams,
 }
@@ -174,8 +188,12 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         )));
     }
     let fractal = Fractal::learn(&sample.map(|v| v / mean));
-    let laplacian = update::laplacian(&linear);
-    Ok(Prepared { linear, original: rgb, mask, masked, tendency, patches, offsets, laplacian, fractal, params: params.clone() })
+    let base = crate::image::filter::gaussian_blur(&linear, GRAIN_SIGMA);
+    let grain = Image::from_fn(w, h, 3, |x, y, p| {
+        p.iter_mut().zip(linear.pixel(x, y).iter().zip(base.pixel(x, y))).for_each(|(o, (l, b))| *o = l - b)
+    });
+    let scale = (mask.count() as f32 / patches.len().max(1) as f32).sqrt();
+    Ok(Prepared { linear, original: rgb, mask, masked, tendency, patches, offsets, base, grain, scale, fractal, params: params.clone() })
 }
 
 fn check_params(p: &StoneParams) -> Result<()> {
@@ -213,9 +231,10 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let mut done = 0;
     let mut frames = Vec::with_capacity(times.len());
     for (i, &t) in times.iter().enumerate() {
-        let smoothed = update::update(&prep.linear, &prep.laplacian, &prep.tendency, &prep.mask, &prep.patches, &prep.offsets, (p.k, t));
+        let weights = update::weights(&prep.tendency, &prep.mask, &prep.patches, (p.k, t));
+        let smoothed = update::update((&prep.base, &prep.grain), &weights, &prep.mask, &prep.patches, &prep.offsets, prep.scale);
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
-        let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask);
+        let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
         if erode {
             let target = erosion::iterations(object_pixels, p.erosion_speed, t);
             while done < target {
@@ -254,20 +273,24 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
 pub const CONTRAST_KS: f32 = 0.05;
 
 /// The contrast step: bring the object's luminance histogram back to the
-/// original's, and scale the colour channels by the same ratio. Outside the
-/// mask the image is unchanged.
+/// original's, on the object's form, and scale the colour channels by the
+/// same ratio. Outside the mask the image is unchanged.
 ///
-/// Departure from an exact match: the exact (rank to quantile) match is
-/// blended in with the smallest strength s in 0, 1/16, ..., 1 whose result
-/// is within [`CONTRAST_KS`] of the original's histogram. The exact match
-/// restores the shadows the smoothing removed by darkening whatever is
-/// darkest in the worn areas: on a test relief it raised the carvings'
-/// band energy above the original (0.0025 -> 0.0033 at t = 200, where the
-/// smoothing alone gave 0.0013), and on the gravestone it drew dark blotches
-/// around the letters. Returns the image and s.
-pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask) -> (Image, f32) {
+/// Departures from an exact match:
+/// - The match is made on the luminance blurred at the patch scale
+///   `scale` (the form), and the detail above it is carried over as it
+///   is. An exact per-pixel match restores the shadows the wear removed by
+///   darkening whatever is darkest in the worn areas: on a gravestone it
+///   cut the letters back to full depth, and on a test relief it raised
+///   the carvings' band energy above the original.
+/// - The exact (rank to quantile) match of the form is blended in with the
+///   smallest strength s in 0, 1/16, ..., 1 whose result is within
+///   [`CONTRAST_KS`] of the original form's histogram. Returns the image
+///   and s.
+pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask, scale: f32) -> (Image, f32) {
     let w = image.width();
-    let (lum, reference_lum) = (luminance(image), luminance(reference));
+    let form = |img: &Image| crate::image::filter::gaussian_blur(&luminance(img), scale);
+    let (lum, reference_lum) = (form(image), form(reference));
     let inside: Vec<usize> = set_pixels(mask).collect();
     let mut order = inside.clone();
     order.sort_unstable_by(|&a, &b| lum.data()[a].total_cmp(&lum.data()[b]).then(a.cmp(&b)));
@@ -292,8 +315,10 @@ pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask) -> (Image,
     };
     let strength = (0..=16).map(|k| k as f32 / 16.0).find(|&s| within(s)).unwrap_or(1.0);
     let mut out = image.clone();
+    let pixel_lum = luminance(image);
     for &i in &inside {
-        let (old, new) = (lum.data()[i], lum.data()[i] + strength * (matched[i] - lum.data()[i]));
+        let old = pixel_lum.data()[i];
+        let new = old + strength * (matched[i] - lum.data()[i]);
         let px = out.pixel_mut(i % w, i / w);
         if old > 1e-5 {
             px.iter_mut().for_each(|v| *v *= new / old);

@@ -9,11 +9,10 @@
 //!
 //! Solved per channel for the correction d = u - c: minimise
 //! sum over 4-neighbour edges of (d_q - d_p - m_pq)^2 + lambda sum d^2,
-//! where m is the seam mismatch (zero inside blocks), by cell-centred
-//! multigrid V-cycles (red-black Gauss-Seidel, 2x2 averaging, bilinear
-//! prolongation, operator rediscretised per level). Deterministic: the
-//! same arithmetic in the same order at any thread count.
+//! where m is the seam mismatch (zero inside blocks), with the engine's
+//! screened Poisson solver ([`poisson::integrate`]).
 
+use super::poisson;
 use crate::image::Image;
 use rayon::prelude::*;
 
@@ -21,11 +20,6 @@ use rayon::prelude::*;
 /// px, longer than any block, so whole blocks can shift in brightness while
 /// the image's overall level stays put.
 const LAMBDA: f32 = 1e-4;
-/// Multigrid cycles: one full-multigrid pass (coarse solutions prolonged
-/// level by level, one V-cycle each) and one more V-cycle.
-const CYCLES: usize = 2;
-/// Gauss-Seidel sweeps before and after each coarse correction.
-const SWEEPS: usize = 2;
 
 /// Blend the seams of `composite`, whose pixel i was copied from exemplar
 /// pixel `sources[i]` of `source` (same channels). Pixels whose right or
@@ -78,31 +72,7 @@ pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)], ou
         if let Some(k) = outlier {
             clamp_outliers(&mut mh, &mut mv, sources, w, k);
         }
-        // Right-hand side: the divergence of the mismatch field.
-        let mut b = vec![0f32; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let i = y * w + x;
-                let mut v = 0.0;
-                if x + 1 < w {
-                    v -= mh[i];
-                }
-                if x > 0 {
-                    v += mh[i - 1];
-                }
-                if y + 1 < h {
-                    v -= mv[i];
-                }
-                if y > 0 {
-                    v += mv[i - w];
-                }
-                b[i] = v;
-            }
-        }
-        let mut d = full_multigrid(&b, w, h, 1.0);
-        for _ in 1..CYCLES {
-            v_cycle(&mut d, &b, w, h, 1.0);
-        }
+        let d = poisson::integrate(&mh, &mv, w, h, LAMBDA);
         let data = out.data_mut();
         for (i, v) in d.iter().enumerate() {
             data[i * n + c] += v;
@@ -151,140 +121,6 @@ fn clamp_outliers(mh: &mut [f32], mv: &mut [f32], sources: &[(u32, u32)], w: usi
             }
         }
     }
-}
-
-/// Half-size average of a w x h grid (cell-centred restriction).
-fn restrict(r: &[f32], w: usize, h: usize) -> (Vec<f32>, usize, usize) {
-    let (cw, ch) = (w.div_ceil(2), h.div_ceil(2));
-    let mut rc = vec![0f32; cw * ch];
-    let mut count = vec![0f32; cw * ch];
-    for y in 0..h {
-        for x in 0..w {
-            rc[(y / 2) * cw + x / 2] += r[y * w + x];
-            count[(y / 2) * cw + x / 2] += 1.0;
-        }
-    }
-    rc.iter_mut().zip(&count).for_each(|(v, k)| *v /= k);
-    (rc, cw, ch)
-}
-
-/// Add the bilinear (cell-centred) prolongation of the coarse `ec` to `d`.
-fn prolong_add(d: &mut [f32], w: usize, ec: &[f32], cw: usize, ch: usize) {
-    d.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let fy = ((y as f32 + 0.5) / 2.0 - 0.5).clamp(0.0, (ch - 1) as f32);
-        let (y0, ty) = (fy.floor() as usize, fy.fract());
-        let y1 = (y0 + 1).min(ch - 1);
-        for (x, v) in row.iter_mut().enumerate() {
-            let fx = ((x as f32 + 0.5) / 2.0 - 0.5).clamp(0.0, (cw - 1) as f32);
-            let (x0, tx) = (fx.floor() as usize, fx.fract());
-            let x1 = (x0 + 1).min(cw - 1);
-            let top = ec[y0 * cw + x0] * (1.0 - tx) + ec[y0 * cw + x1] * tx;
-            let bottom = ec[y1 * cw + x0] * (1.0 - tx) + ec[y1 * cw + x1] * tx;
-            *v += top * (1.0 - ty) + bottom * ty;
-        }
-    });
-}
-
-/// Full multigrid: solve the restricted problem, prolong its solution as
-/// the start here, and finish with one V-cycle.
-fn full_multigrid(b: &[f32], w: usize, h: usize, s: f32) -> Vec<f32> {
-    let mut d = vec![0f32; w * h];
-    if w > 2 && h > 2 {
-        let (bc, cw, ch) = restrict(b, w, h);
-        let dc = full_multigrid(&bc, cw, ch, s / 4.0);
-        prolong_add(&mut d, w, &dc, cw, ch);
-    }
-    v_cycle(&mut d, b, w, h, s);
-    d
-}
-
-/// One V-cycle for (s L + lambda) d = b on a w x h grid (L the graph
-/// Laplacian with Neumann boundaries, s the level's scale).
-fn v_cycle(d: &mut [f32], b: &[f32], w: usize, h: usize, s: f32) {
-    if w <= 2 || h <= 2 {
-        for _ in 0..50 {
-            gauss_seidel(d, b, w, h, s);
-        }
-        return;
-    }
-    for _ in 0..SWEEPS {
-        gauss_seidel(d, b, w, h, s);
-    }
-    let r = residual(d, b, w, h, s);
-    let (rc, cw, ch) = restrict(&r, w, h);
-    let mut ec = vec![0f32; cw * ch];
-    v_cycle(&mut ec, &rc, cw, ch, s / 4.0);
-    prolong_add(d, w, &ec, cw, ch);
-    for _ in 0..SWEEPS {
-        gauss_seidel(d, b, w, h, s);
-    }
-}
-
-/// Sum of d's 4 neighbours and their count at (x, y).
-#[inline]
-fn neighbours(d: &[f32], w: usize, h: usize, x: usize, y: usize) -> (f32, f32) {
-    let i = y * w + x;
-    let (mut sum, mut k) = (0f32, 0f32);
-    if x > 0 {
-        sum += d[i - 1];
-        k += 1.0;
-    }
-    if x + 1 < w {
-        sum += d[i + 1];
-        k += 1.0;
-    }
-    if y > 0 {
-        sum += d[i - w];
-        k += 1.0;
-    }
-    if y + 1 < h {
-        sum += d[i + w];
-        k += 1.0;
-    }
-    (sum, k)
-}
-
-/// Red-black Gauss-Seidel: the red pixels (x + y even) from the black ones,
-/// then the black from the red; each half in parallel by rows. Interior
-/// pixels take a branch-free path (four neighbours).
-fn gauss_seidel(d: &mut [f32], b: &[f32], w: usize, h: usize, s: f32) {
-    let inner = 1.0 / (4.0 * s + LAMBDA);
-    for colour in 0..2 {
-        let snapshot = d.to_vec();
-        d.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            let first = (y + colour) % 2;
-            if y == 0 || y + 1 == h || w < 3 {
-                for x in (first..w).step_by(2) {
-                    let (sum, k) = neighbours(&snapshot, w, h, x, y);
-                    row[x] = (b[y * w + x] + s * sum) / (s * k + LAMBDA);
-                }
-                return;
-            }
-            let (up, mid, down) = (&snapshot[(y - 1) * w..y * w], &snapshot[y * w..(y + 1) * w], &snapshot[(y + 1) * w..(y + 2) * w]);
-            let brow = &b[y * w..(y + 1) * w];
-            for x in (first..w).step_by(2) {
-                if x == 0 || x + 1 == w {
-                    let (sum, k) = neighbours(&snapshot, w, h, x, y);
-                    row[x] = (brow[x] + s * sum) / (s * k + LAMBDA);
-                } else {
-                    row[x] = (brow[x] + s * (mid[x - 1] + mid[x + 1] + up[x] + down[x])) * inner;
-                }
-            }
-        });
-    }
-}
-
-/// b - (s L + lambda) d.
-fn residual(d: &[f32], b: &[f32], w: usize, h: usize, s: f32) -> Vec<f32> {
-    let mut r = vec![0f32; w * h];
-    r.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, v) in row.iter_mut().enumerate() {
-            let (sum, k) = neighbours(d, w, h, x, y);
-            let i = y * w + x;
-            *v = b[i] - ((s * k + LAMBDA) * d[i] - s * sum);
-        }
-    });
-    r
 }
 
 #[cfg(test)]

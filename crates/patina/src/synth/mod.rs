@@ -15,6 +15,7 @@ pub mod lighting;
 pub mod nnf;
 pub mod optimize;
 pub mod patchmatch;
+pub mod poisson;
 pub mod problem;
 pub mod quilt;
 pub mod vote;
