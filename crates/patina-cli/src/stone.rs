@@ -38,7 +38,7 @@ pub struct Args {
     #[arg(long, default_value_t = 60.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 10000.0))]
     pub m: f32,
     /// k: smoothing speed, w = exp(-k mean d t).
-    #[arg(long, default_value_t = 0.02, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 10.0))]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 10.0))]
     pub k: f32,
     /// n: minimum patch size = object pixels / n.
     #[arg(long, default_value_t = 3200.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1.0e9))]

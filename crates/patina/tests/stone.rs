@@ -110,12 +110,12 @@ fn carvings_wear_away_while_the_grain_stays_and_no_lattice_appears() {
     assert!(carving[3] <= 0.75 * carving[0], "carving kept {:.2} at t = 200", carving[3] / carving[0]);
     // The sub-pixel grain keeps at least 3/4 of its energy at every t. It is
     // measured between the grooves of the carved field, where the stone
-    // wears (the patches there are at w < 0.6 by t = 200) but the
+    // wears (the patches there are at w < 0.7 by t = 200) but the
     // grooves put nothing into the band: the grain alone is the truth.
     let between: Vec<usize> = busy.iter().copied().filter(|&i| depth(&lines, (i % W) as f32, (i / W) as f32) < 0.02).collect();
     let weights = stone::update::weights(&prep.tendency, &prep.mask, &prep.patches, (params.k, 200.0));
     let mean_w = between.iter().map(|&i| weights.data()[i]).sum::<f32>() / between.len() as f32;
-    assert!(between.len() > 300 && mean_w < 0.6, "{} px between the grooves at w = {mean_w}", between.len());
+    assert!(between.len() > 300 && mean_w < 0.7, "{} px between the grooves at w = {mean_w}", between.len());
     let truth = band_energy(&grain_only(), &between, 0.0, 1.0);
     let grooves = band_energy(&input, &between, 0.0, 1.0) - truth;
     assert!(grooves.abs() < 0.1 * truth, "the test's grooves leak into the grain band: {grooves} vs {truth}");

@@ -45,7 +45,7 @@ pub(crate) fn set_pixels(mask: &Mask) -> impl Iterator<Item = usize> + '_ {
 
 /// Scale (px) of the grain/relief split: detail finer than this Gaussian
 /// is the finest band, whose energy weathering keeps.
-pub const GRAIN_SIGMA: f32 = 1.5;
+pub const GRAIN_SIGMA: f32 = 2.5;
 
 /// Gamma used to linearise LDR input (the paper's 2.2).
 pub const GAMMA: f32 = 2.2;
@@ -65,10 +65,7 @@ pub struct StoneParams {
     pub max_patch: f32,
     /// w_d of eq. (1).
     pub wd: f32,
-    /// k of eq. (2): w = exp(-k mean d t). Default 0.02, twice the
-    /// paper's: with the paper's 0.01 the relief of a gravestone's letters
-    /// kept 3/4 of its amplitude at t = 100, the paper's "heavily
-    /// weathered", barely visible at 100% zoom.
+    /// k of eq. (2): w = exp(-k mean d t).
     pub k: f32,
     /// nu: roughening weight beta = d^nu.
     pub nu: f32,
@@ -91,7 +88,7 @@ impl Default for StoneParams {
             n: 3200.0,
             max_patch: 4.0,
             wd: 1.0,
-            k: 0.02,
+            k: 0.01,
             nu: 3.0,
             roughen: true,
             erosion: true,
