@@ -16,15 +16,18 @@ const GIF_DELAY_MS: u32 = 600;
 /// appear where the stone is busiest, and the silhouette erodes from the top.
 ///
 /// Writes frames/NNN.png (one per time), tendency.png (white = weathers
-/// fastest), segments.png (the patches, false colour), mask_tNNN.png (the
-/// object left standing, when eroding), sequence.gif and manifest.json.
+/// fastest), segments.png (the patches, false colour), mask_auto.png (the
+/// object found, with `--mask auto`), mask_tNNN.png (the object left
+/// standing, when eroding), sequence.gif and manifest.json.
 #[derive(clap::Args)]
 pub struct Args {
     /// Photo of the stone object (PNG, JPEG, 16-bit PNG, EXR; gamma 2.2 assumed).
     pub photo: PathBuf,
-    /// Object mask, white = stone [default: the photo's alpha, or the whole image].
-    #[arg(long)]
-    pub mask: Option<PathBuf>,
+    /// Object mask: a file (white = stone), `auto` (the photo's alpha if it
+    /// has one, else the grey stone object found by colour and texture
+    /// clustering, written as mask_auto.png) or `none` (the whole image).
+    #[arg(long, default_value = "auto")]
+    pub mask: String,
     /// Output folder.
     #[arg(short, long)]
     pub out: PathBuf,
@@ -75,8 +78,12 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("stone", args.seed);
+    let mask_file = match args.mask.as_str() {
+        "auto" | "none" => None,
+        path => Some(PathBuf::from(path)),
+    };
     let inputs: Vec<&Path> =
-        [Some(args.photo.as_path()), args.mask.as_deref(), args.rough_sample.as_deref()].into_iter().flatten().collect();
+        [Some(args.photo.as_path()), mask_file.as_deref(), args.rough_sample.as_deref()].into_iter().flatten().collect();
     let masks: Vec<String> = (0..args.times.len()).map(|i| format!("mask_t{i:03}.png")).collect();
     let out = OutDir::begin(&args.out, &inputs, args.overwrite)?;
     let dir = out.path();
@@ -94,11 +101,13 @@ pub fn run(args: Args) -> Result<()> {
         ..StoneParams::default()
     };
     let photo = crate::input::load(&args.photo)?;
-    let mask = args
-        .mask
-        .as_ref()
-        .map(|m| crate::input::load(m).map(|img| Mask::from_image(&patina::image::color::luminance(&img))))
-        .transpose()?;
+    let has_alpha = photo.channels() == 2 || photo.channels() == 4;
+    let (mask, mask_source) = match (&mask_file, args.mask.as_str()) {
+        (Some(file), _) => (Some(Mask::from_image(&patina::image::color::luminance(&crate::input::load(file)?))), "file"),
+        (None, "none") => (Some(Mask::filled(photo.width(), photo.height(), true)), "none"),
+        (None, _) if has_alpha => (None, "alpha"),
+        (None, _) => (Some(stone::select::auto_mask(&photo, args.seed)), "auto"),
+    };
     let sample = args.rough_sample.as_ref().map(crate::input::load).transpose()?;
     manifest.timings_ms.insert("load".into(), clock.lap());
 
@@ -107,6 +116,10 @@ pub fn run(args: Args) -> Result<()> {
     let frames = with_bar("stone", |report| stone::sequence(&prepared, &args.times, args.seed, Some(report)))?;
     manifest.timings_ms.insert("frames".into(), clock.lap());
 
+    if mask_source == "auto" {
+        save_png(&prepared.mask.to_image(), dir.join("mask_auto.png"), BitDepth::Eight)?;
+        manifest.outputs.push("mask_auto.png".into());
+    }
     save_png(&prepared.tendency, dir.join("tendency.png"), BitDepth::Eight)?;
     save_png(&segment::false_colour(&prepared.patches, prepared.mask.size()), dir.join("segments.png"), BitDepth::Eight)?;
     manifest.outputs.extend(["tendency.png".into(), "segments.png".into()]);
@@ -127,6 +140,7 @@ pub fn run(args: Args) -> Result<()> {
     p["patches"] = json!(prepared.patches.len());
     p["fractal_amplitudes"] = json!(prepared.fractal.amplitudes);
     p["masked"] = json!(prepared.masked);
+    p["mask_source"] = json!(mask_source);
     manifest.params = p;
     manifest.metrics.insert("object_pixels".into(), json!(frames.iter().map(|f| f.mask.count()).collect::<Vec<_>>()));
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();

@@ -18,6 +18,7 @@
 pub mod erosion;
 pub mod roughen;
 pub mod segment;
+pub mod select;
 pub mod tendency;
 pub mod update;
 
