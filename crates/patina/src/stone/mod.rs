@@ -78,6 +78,9 @@ pub struct StoneParams {
     pub erosion_speed: f32,
     /// alpha: colour share a removed pixel bleeds into its inner neighbours.
     pub bleed: f32,
+    /// Pixels a (partial) object mask is dilated by, to take in the
+    /// object's anti-aliased rim.
+    pub mask_dilation: usize,
 }
 
 impl Default for StoneParams {
@@ -95,6 +98,7 @@ impl Default for StoneParams {
             erosion: true,
             erosion_speed: 0.0002,
             bleed: 0.2,
+            mask_dilation: 2,
         }
     }
 }
@@ -105,6 +109,7 @@ pub struct Prepared {
     pub linear: Image,
     /// The photo as given (sRGB), RGB: background pixels are copied from it.
     pub original: Image,
+    /// The object: the given mask dilated by `params.mask_dilation`.
     pub mask: Mask,
     /// Whether the mask came from the user (or alpha); erosion needs one.
     pub masked: bool,
@@ -163,11 +168,18 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         }
         None => (Mask::filled(w, h, true), false),
     };
+    // The object's anti-aliased rim (pixels part stone, part background)
+    // lies just outside a tight mask; it joins the object so that erosion
+    // removes it too instead of leaving it as a ghost outline.
+    let tight = mask;
+    let mask = if masked && params.mask_dilation > 0 && tight.count() < w * h { tight.dilate(params.mask_dilation) } else { tight.clone() };
     if mask.count() < 64 {
         return Err(Error::invalid(format!("the mask covers {} pixels; stone needs an object of at least 64", mask.count())));
     }
     let linear = rgb.map(|v| v.max(0.0).powf(GAMMA));
-    let tendency = tendency::tendency(&linear, &mask, params.eta, params.m);
+    // The tendency is measured on the object proper (the rim's mix with the
+    // background would read as busy stone) and carried out over the rim.
+    let tendency = tendency::extend(&tendency::tendency(&linear, &tight, params.eta, params.m), &tight, &mask);
     let seg = SegmentParams { k: params.seg_k, n: params.n, max_factor: params.max_patch };
     let patches = segment::segment(&tendency, &mask, &seg);
     let intensity = luminance(&linear);
@@ -245,19 +257,30 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
             }
         }
         let object = if erode { erosion.object.clone() } else { prep.mask.clone() };
+        let encode = |v: f32| v.clamp(0.0, 1.0).powf(1.0 / GAMMA);
         let mut image = prep.original.clone();
         for y in 0..h {
             for x in 0..w {
                 if object.get(x, y) {
                     let px = weathered.pixel(x, y);
-                    image.pixel_mut(x, y).iter_mut().zip(px).for_each(|(o, v)| *o = v.clamp(0.0, 1.0).powf(1.0 / GAMMA));
+                    image.pixel_mut(x, y).iter_mut().zip(px).for_each(|(o, &v)| *o = encode(v));
                 }
             }
         }
         if erode {
             let eroded = Mask::from_fn(w, h, |x, y| prep.mask.get(x, y) && !object.get(x, y));
             let background = Mask::from_fn(w, h, |x, y| !prep.mask.get(x, y));
-            image = erosion::fill_background(&image, &background, &eroded, crate::rng::derive(seed, &[i as u64]))?;
+            image = erosion::fill_background(&image, &background, &eroded);
+            // Anti-aliased outline: a removed pixel next to the stone keeps
+            // the share of stone a slightly blurred outline gives it.
+            let coverage = crate::image::filter::gaussian_blur(&object.to_image(), erosion::EDGE_SIGMA);
+            for idx in set_pixels(&eroded) {
+                let (x, y, a) = (idx % w, idx / w, coverage.data()[idx]);
+                if a > 0.0 {
+                    let stone = weathered.pixel(x, y).to_vec();
+                    image.pixel_mut(x, y).iter_mut().zip(stone).for_each(|(o, v)| *o = a * encode(v) + (1.0 - a) * *o);
+                }
+            }
         }
         frames.push(Frame { t, image, mask: object, contrast });
         if let Some(report) = progress {

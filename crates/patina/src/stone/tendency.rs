@@ -60,6 +60,42 @@ pub fn tendency(linear: &Image, mask: &Mask, eta: f32, m: f32) -> Image {
     d
 }
 
+/// `d` (measured on `object`) carried over the pixels of `grown` outside
+/// `object`: each takes the value of its nearest object pixel along rows
+/// and columns (the largest of its up to 8 neighbours, repeated ring by
+/// ring), so the rim weathers as the stone next to it.
+pub fn extend(d: &Image, object: &Mask, grown: &Mask) -> Image {
+    let (w, h) = object.size();
+    let mut out = d.clone();
+    let mut known = object.clone();
+    loop {
+        let mut next = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                if known.get(x, y) || !grown.get(x, y) {
+                    continue;
+                }
+                let mut best: Option<f32> = None;
+                for (nx, ny) in super::neighbours(x, y, w, h) {
+                    if known.get(nx, ny) {
+                        best = Some(best.map_or(out.at(nx, ny, 0), |b: f32| b.max(out.at(nx, ny, 0))));
+                    }
+                }
+                if let Some(v) = best {
+                    next.push((x, y, v));
+                }
+            }
+        }
+        if next.is_empty() {
+            return out;
+        }
+        for (x, y, v) in next {
+            out.pixel_mut(x, y)[0] = v;
+            known.set(x, y, true);
+        }
+    }
+}
+
 /// Share of the object's pixels whose variance is at or above v*.
 pub const REFERENCE_SHARE: f32 = 0.02;
 
