@@ -22,9 +22,12 @@ fn carved(i: usize) -> bool {
     (60..132).contains(&(i % W)) && (52..108).contains(&(i / W))
 }
 
+/// A stroke from one point to another.
+type Segment = ((f32, f32), (f32, f32));
+
 /// Letter-like strokes: 22 segments at random places, lengths and
 /// multiples of 45 degrees, inside the carved field.
-fn strokes() -> Vec<((f32, f32), (f32, f32))> {
+fn strokes() -> Vec<Segment> {
     use patina::rng::Rng;
     let mut rng = patina::rng::generator(19, &[]);
     (0..22)
@@ -41,8 +44,8 @@ fn strokes() -> Vec<((f32, f32), (f32, f32))> {
 /// Depth of the carving at (x, y): grooves of Gaussian profile (sigma 3
 /// px) along the strokes, merged smoothly where they meet, so the carving
 /// lives at scales above the per-pixel grain.
-fn depth(strokes: &[((f32, f32), (f32, f32))], x: f32, y: f32) -> f32 {
-    let dist = |&((ax, ay), (bx, by)): &((f32, f32), (f32, f32))| {
+fn depth(strokes: &[Segment], x: f32, y: f32) -> f32 {
+    let dist = |&((ax, ay), (bx, by)): &Segment| {
         let (dx, dy) = (bx - ax, by - ay);
         let t = (((x - ax) * dx + (y - ay) * dy) / (dx * dx + dy * dy).max(1e-6)).clamp(0.0, 1.0);
         ((x - ax - t * dx).powi(2) + (y - ay - t * dy).powi(2)).sqrt()
