@@ -25,7 +25,8 @@ pub struct Args {
     pub photo: PathBuf,
     /// Object mask: a file (white = stone), `auto` (the photo's alpha if it
     /// has one, else the grey stone object found by colour and texture
-    /// clustering, written as mask_auto.png) or `none` (the whole image).
+    /// clustering, written as mask_auto.png; its outline is not eroded and
+    /// the weathering fades in over 8 px from it) or `none` (the whole image).
     #[arg(long, default_value = "auto")]
     pub mask: String,
     /// Output folder.
@@ -61,7 +62,10 @@ pub struct Args {
     /// Do not roughen.
     #[arg(long)]
     pub no_roughen: bool,
-    /// Do not erode the silhouette (erosion needs a mask or alpha anyway).
+    /// Do not open pits (small cavities where the stone weathers most).
+    #[arg(long)]
+    pub no_pits: bool,
+    /// Do not erode the silhouette (erosion needs a mask file or alpha; an automatic mask is never eroded).
     #[arg(long)]
     pub no_erosion: bool,
     /// epsilon: erosion iterations = epsilon sqrt(object pixels) t.
@@ -96,6 +100,7 @@ pub fn run(args: Args) -> Result<()> {
         k: args.k,
         nu: args.nu,
         roughen: !args.no_roughen,
+        pits: !args.no_pits,
         erosion: !args.no_erosion,
         erosion_speed: args.erosion_speed,
         ..StoneParams::default()
@@ -111,6 +116,14 @@ pub fn run(args: Args) -> Result<()> {
     let sample = args.rough_sample.as_ref().map(crate::input::load).transpose()?;
     manifest.timings_ms.insert("load".into(), clock.lap());
 
+    // An automatic mask can be off by a few pixels and take in a bit of
+    // background: its outline is not eroded, and the weathering fades in
+    // from it, so neither a wrong edge nor the background is repainted.
+    let params = if mask_source == "auto" {
+        StoneParams { erosion: false, feather: stone::select::AUTO_FEATHER, ..params }
+    } else {
+        params
+    };
     let prepared = stone::prepare(&photo, mask.as_ref(), sample.as_ref(), &params)?;
     manifest.timings_ms.insert("prepare".into(), clock.lap());
     let frames = with_bar("stone", |report| stone::sequence(&prepared, &args.times, args.seed, Some(report)))?;

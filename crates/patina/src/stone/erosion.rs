@@ -117,32 +117,7 @@ impl Erosion {
 /// of tearing through.
 fn thinness(object: &Mask) -> Vec<f32> {
     let (w, h) = object.size();
-    let mut dist = vec![0f32; w * h];
-    let big = (w + h) as f32 * 4.0;
-    for (i, d) in dist.iter_mut().enumerate() {
-        *d = if object.bits()[i] { big } else { 0.0 };
-    }
-    let pass = |dist: &mut [f32], order: &mut dyn Iterator<Item = usize>, forward: bool| {
-        for i in order {
-            if dist[i] == 0.0 {
-                continue;
-            }
-            let (x, y) = ((i % w) as isize, (i / w) as isize);
-            let s: isize = if forward { -1 } else { 1 };
-            for (dx, dy, c) in [(s, 0, 3.0), (0, s, 3.0), (s, s, 4.0), (-s, s, 4.0)] {
-                let (nx, ny) = (x + dx, y + dy);
-                // Outside the image counts as stone (the frame is not an outline).
-                if nx >= 0 && ny >= 0 && nx < w as isize && ny < h as isize {
-                    let v = dist[ny as usize * w + nx as usize] + c;
-                    if v < dist[i] {
-                        dist[i] = v;
-                    }
-                }
-            }
-        }
-    };
-    pass(&mut dist, &mut (0..w * h), true);
-    pass(&mut dist, &mut (0..w * h).rev(), false);
+    let dist = object.distance_inside();
     let radius = (THIN / 2.0) as usize;
     let local_max = |horizontal: bool, src: &[f32]| -> Vec<f32> {
         let mut out = vec![0f32; w * h];
@@ -156,7 +131,7 @@ fn thinness(object: &Mask) -> Vec<f32> {
         out
     };
     let widest = local_max(false, &local_max(true, &dist));
-    widest.iter().map(|&d| (2.0 * d / 3.0 / THIN).clamp(THIN_FLOOR, 1.0)).collect()
+    widest.iter().map(|&d| (2.0 * d / THIN).clamp(THIN_FLOOR, 1.0)).collect()
 }
 
 /// Iterations for time t: epsilon sqrt(N(I)) t.

@@ -16,6 +16,7 @@
 //! ```
 
 pub mod erosion;
+pub mod pits;
 pub mod roughen;
 pub mod segment;
 pub mod select;
@@ -72,6 +73,8 @@ pub struct StoneParams {
     pub nu: f32,
     /// Roughen at all.
     pub roughen: bool,
+    /// Open pits where the stone weathers ([`pits`]).
+    pub pits: bool,
     /// Erode the silhouette (needs a mask or alpha with background).
     pub erosion: bool,
     /// epsilon: erosion iterations = epsilon sqrt(N(I)) t.
@@ -81,6 +84,10 @@ pub struct StoneParams {
     /// Pixels a (partial) object mask is dilated by, to take in the
     /// object's anti-aliased rim.
     pub mask_dilation: usize,
+    /// Width (px) over which the weathering fades in from the mask's edge
+    /// (0: none). Used with masks that may be off by a few pixels, such as
+    /// [`select::auto_mask`]'s, so their outline does not show.
+    pub feather: f32,
 }
 
 impl Default for StoneParams {
@@ -95,10 +102,12 @@ impl Default for StoneParams {
             k: 0.01,
             nu: 3.0,
             roughen: true,
+            pits: true,
             erosion: true,
             erosion_speed: 0.0002,
             bleed: 0.2,
             mask_dilation: 2,
+            feather: 0.0,
         }
     }
 }
@@ -117,10 +126,10 @@ pub struct Prepared {
     pub patches: Vec<Patch>,
     /// Each patch's best-match offset c1 - c0 under eq. (1).
     pub offsets: Vec<(isize, isize)>,
-    /// The relief: `linear` without its finest band (a Gaussian of
-    /// [`GRAIN_SIGMA`]).
+    /// The relief: `original` (gamma-encoded) without its finest band (a
+    /// Gaussian of [`GRAIN_SIGMA`]).
     pub base: Image,
-    /// `linear - base`: the finest band, the stone's grain and the sharpest
+    /// `original - base`: the finest band, the stone's grain and the sharpest
     /// carved edges. The patch update treats it apart ([`update::update`]).
     pub grain: Image,
     /// The patch scale (px): sqrt(object pixels / patches). The update
@@ -198,9 +207,12 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         )));
     }
     let fractal = Fractal::learn(&sample.map(|v| v / mean));
-    let base = crate::image::filter::gaussian_blur(&linear, GRAIN_SIGMA);
+    // The relief is worn in the photo's gamma encoding: in linear light a
+    // shadow's gradients are small and survived while highlights went, so
+    // raised letters turned into dark smudges.
+    let base = crate::image::filter::gaussian_blur(&rgb, GRAIN_SIGMA);
     let grain = Image::from_fn(w, h, 3, |x, y, p| {
-        p.iter_mut().zip(linear.pixel(x, y).iter().zip(base.pixel(x, y))).for_each(|(o, (l, b))| *o = l - b)
+        p.iter_mut().zip(rgb.pixel(x, y).iter().zip(base.pixel(x, y))).for_each(|(o, (l, b))| *o = l - b)
     });
     let scale = (mask.count() as f32 / patches.len().max(1) as f32).sqrt();
     Ok(Prepared { linear, original: rgb, mask, masked, tendency, patches, offsets, base, grain, scale, fractal, params: params.clone() })
@@ -238,12 +250,16 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let erode = p.erosion && prep.masked && prep.mask.count() < w * h;
     let mut erosion = Erosion::new(&prep.linear, &prep.mask, p.bleed, seed);
     let object_pixels = prep.mask.count();
+    let fade: Option<Vec<f32>> =
+        (p.feather > 0.0).then(|| prep.mask.distance_inside().iter().map(|d| (d / p.feather).min(1.0)).collect());
     let mut done = 0;
     let mut frames = Vec::with_capacity(times.len());
     for (i, &t) in times.iter().enumerate() {
         let weights = update::weights(&prep.tendency, &prep.mask, &prep.patches, (p.k, t));
-        let smoothed = update::update((&prep.base, &prep.grain), &weights, &prep.mask, &prep.patches, &prep.offsets, prep.scale);
+        let smoothed = update::update((&prep.base, &prep.grain), &weights, &prep.mask, &prep.patches, &prep.offsets, prep.scale)
+            .map(|v| v.max(0.0).powf(GAMMA));
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
+        let rough = if p.pits { pits::pit(&rough, &prep.tendency, p.k, t, seed) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
         if erode {
             let target = erosion::iterations(object_pixels, p.erosion_speed, t);
@@ -262,8 +278,8 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         for y in 0..h {
             for x in 0..w {
                 if object.get(x, y) {
-                    let px = weathered.pixel(x, y);
-                    image.pixel_mut(x, y).iter_mut().zip(px).for_each(|(o, &v)| *o = encode(v));
+                    let (px, f) = (weathered.pixel(x, y), fade.as_ref().map_or(1.0, |fade| fade[y * w + x]));
+                    image.pixel_mut(x, y).iter_mut().zip(px).for_each(|(o, &v)| *o += f * (encode(v) - *o));
                 }
             }
         }

@@ -21,6 +21,10 @@ use crate::image::resample::{resize, Filter};
 use crate::image::{Image, Mask};
 use crate::rng::Rng;
 
+/// Feather (px) a run on an automatic mask uses: the weathering fades in
+/// over this many pixels from the mask's edge, where the mask may be off.
+pub const AUTO_FEATHER: f32 = 8.0;
+
 /// Longer side of the working copy the clusters are found on.
 const WORK_SIDE: usize = 192;
 /// Colour/texture clusters.
@@ -88,9 +92,16 @@ pub fn auto_mask(photo: &Image, seed: u64) -> Mask {
         d(&stone_centres) <= d(&other_centres)
     });
     let smoothed = majority(decided.bits(), w, h);
-    let filled = fill_holes(&central_component(&smoothed, w, h), w, h);
+    // An opening cuts thin bridges to neighbouring grey things (a strip of
+    // board in shadow leading to a marker), then the subject is kept.
+    let r = (w.min(h) / OPENING).max(1);
+    let smoothed = Mask::from_fn(w, h, |x, y| smoothed[y * w + x]).erode(r).dilate(r);
+    let filled = fill_holes(&central_component(smoothed.bits(), w, h), w, h);
     Mask::from_fn(w, h, |x, y| filled[y * w + x])
 }
+
+/// The opening's radius is the shorter side over this.
+const OPENING: usize = 60;
 
 /// Lightness counts half as much as the colour axes: shading varies L over
 /// one stone far more than its hue.

@@ -1,0 +1,110 @@
+//! Pitting: the small cavities weathering leaves in stone, where grains
+//! and crystals fall out. Not in the paper (its roughening adds a fractal
+//! to the luminance); added because worn stone without pits reads as a
+//! softened photo (issue 19).
+//!
+//! Candidate pits sit one per cell of a jittered grid. Each has its own
+//! threshold u in [0, 1) and opens once d(x)^nu' (1 - exp(-k t)) > u, so
+//! pits appear first and densest where the tendency is high and only ever
+//! grow in number with t. A pit is a small disc (0.6 to 1.8 px radius)
+//! darkened like a cavity in shadow, its rim on the side facing the light
+//! (the top left) slightly brightened, anti-aliased at the edge.
+
+use crate::image::Image;
+use rayon::prelude::*;
+
+/// Spacing (px) of the candidate grid.
+pub const SPACING: f32 = 5.0;
+/// Share of light a pit's floor keeps.
+const FLOOR: f32 = 0.55;
+/// Brightening of the lit rim.
+const RIM: f32 = 0.12;
+/// Exponent on the tendency: pits concentrate where the stone is busiest.
+const FOCUS: f32 = 1.5;
+
+/// One candidate pit: centre, radius and opening threshold.
+struct Pit {
+    x: f32,
+    y: f32,
+    radius: f32,
+    threshold: f32,
+}
+
+fn candidate(seed: u64, cx: i64, cy: i64) -> Pit {
+    let h = crate::rng::derive(seed ^ 0x9175, &[cx as u64, cy as u64]);
+    let unit = |shift: u32| ((h >> shift) & 0xffff) as f32 / 65536.0;
+    Pit {
+        x: (cx as f32 + unit(0)) * SPACING,
+        y: (cy as f32 + unit(16)) * SPACING,
+        radius: 0.6 + 1.2 * unit(32).powi(2),
+        threshold: unit(48),
+    }
+}
+
+/// Multiply the luminance of `linear` (colour channels by the same ratio)
+/// by the pits open at time t, for smoothing speed `k`. Pixels with d = 0
+/// (the background) are unchanged.
+pub fn pit(linear: &Image, tendency: &Image, k: f32, t: f32, seed: u64) -> Image {
+    let (w, h, c) = (linear.width(), linear.height(), linear.channels());
+    let growth = 1.0 - (-k * t).exp();
+    let mut out = linear.clone();
+    if growth <= 0.0 {
+        return out;
+    }
+    out.data_mut().par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+        let (gy, fy) = ((y as f32 / SPACING).floor() as i64, y as f32 + 0.5);
+        for x in 0..w {
+            let d = tendency.at(x, y, 0);
+            if d <= 0.0 {
+                continue;
+            }
+            let (gx, fx) = ((x as f32 / SPACING).floor() as i64, x as f32 + 0.5);
+            let mut factor = 1.0f32;
+            for cy in gy - 1..=gy + 1 {
+                for cx in gx - 1..=gx + 1 {
+                    let p = candidate(seed, cx, cy);
+                    let (px, py) = (p.x.clamp(0.0, w as f32 - 1.0) as usize, p.y.clamp(0.0, h as f32 - 1.0) as usize);
+                    if tendency.at(px, py, 0).powf(FOCUS) * growth <= p.threshold {
+                        continue;
+                    }
+                    let (dx, dy) = (fx - p.x, fy - p.y);
+                    let r = (dx * dx + dy * dy).sqrt();
+                    // Anti-aliased disc: full inside r - 0.5, none past r + 0.5.
+                    let inside = (p.radius + 0.5 - r).clamp(0.0, 1.0);
+                    factor *= 1.0 - (1.0 - FLOOR) * inside;
+                    // The lit rim: a thin ring on the upper-left side.
+                    let ring = (1.0 - (r - p.radius - 0.7).abs()).clamp(0.0, 1.0) * ((-dx - dy) / (r + 1e-3) * 0.7).max(0.0);
+                    factor *= 1.0 + RIM * ring;
+                }
+            }
+            if factor != 1.0 {
+                row[x * c..(x + 1) * c].iter_mut().for_each(|v| *v *= factor);
+            }
+        }
+    });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pits_open_where_the_tendency_is_high_and_only_grow_in_number() {
+        let (w, h) = (120, 60);
+        let img = Image::from_fn(w, h, 3, |_, _, p| p.fill(0.5));
+        let d = Image::from_fn(w, h, 1, |x, _, p| p[0] = if x < 60 { 0.15 } else { 0.9 });
+        let dark = |im: &Image, xs: std::ops::Range<usize>| {
+            xs.flat_map(|x| (0..h).map(move |y| (x, y))).filter(|&(x, y)| im.at(x, y, 0) < 0.45).count()
+        };
+        let mut last = (0, 0);
+        for t in [0.0, 50.0, 100.0, 200.0, 400.0] {
+            let out = pit(&img, &d, 0.01, t, 3);
+            let now = (dark(&out, 0..60), dark(&out, 60..120));
+            assert!(now.0 >= last.0 && now.1 >= last.1, "pits closed between times: {last:?} -> {now:?}");
+            last = now;
+        }
+        assert_eq!(pit(&img, &d, 0.01, 0.0, 3).data(), img.data(), "no pits at t = 0");
+        assert!(last.1 > 150 && last.1 > 4 * last.0.max(1), "pits calm {} vs busy {}", last.0, last.1);
+    }
+}
