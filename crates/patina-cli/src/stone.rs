@@ -119,11 +119,8 @@ pub fn run(args: Args) -> Result<()> {
     // An automatic mask can be off by a few pixels and take in a bit of
     // background: its outline is not eroded, and the weathering fades in
     // from it, so neither a wrong edge nor the background is repainted.
-    let params = if mask_source == "auto" {
-        StoneParams { erosion: false, feather: stone::select::AUTO_FEATHER, ..params }
-    } else {
-        params
-    };
+    let params =
+        if mask_source == "auto" { StoneParams { erosion: false, feather: stone::select::AUTO_FEATHER, ..params } } else { params };
     let prepared = stone::prepare(&photo, mask.as_ref(), sample.as_ref(), &params)?;
     manifest.timings_ms.insert("prepare".into(), clock.lap());
     let frames = with_bar("stone", |report| stone::sequence(&prepared, &args.times, args.seed, Some(report)))?;

@@ -250,12 +250,11 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let erode = p.erosion && prep.masked && prep.mask.count() < w * h;
     let mut erosion = Erosion::new(&prep.linear, &prep.mask, p.bleed, seed);
     let object_pixels = prep.mask.count();
-    let fade: Option<Vec<f32>> =
-        (p.feather > 0.0).then(|| prep.mask.distance_inside().iter().map(|d| (d / p.feather).min(1.0)).collect());
+    let fade: Option<Vec<f32>> = (p.feather > 0.0).then(|| prep.mask.distance_inside().iter().map(|d| (d / p.feather).min(1.0)).collect());
     let mut done = 0;
     let mut frames = Vec::with_capacity(times.len());
     for (i, &t) in times.iter().enumerate() {
-        let weights = update::weights(&prep.tendency, &prep.mask, &prep.patches, (p.k, t));
+        let weights = update::weights(&prep.tendency, &prep.mask, prep.scale, (p.k, t));
         let smoothed = update::update((&prep.base, &prep.grain), &weights, &prep.mask, &prep.patches, &prep.offsets, prep.scale)
             .map(|v| v.max(0.0).powf(GAMMA));
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };

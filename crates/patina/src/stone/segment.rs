@@ -63,8 +63,9 @@ impl Forest {
 ///    Int(C) + K / |C|.
 /// 2. Components under Omega = N / n pixels are merged into a neighbour
 ///    along the lightest edges (FH's post-processing).
-/// 3. Components over `max_factor` x Omega are cut in two at the median
-///    along the longer side of their bounding box, until none is.
+/// 3. Components over `max_factor` x Omega are cut in two along a wavy
+///    line across the longer side of their bounding box ([`bisect`]),
+///    until none is.
 pub fn segment(tendency: &Image, mask: &Mask, params: &SegmentParams) -> Vec<Patch> {
     let (w, h) = tendency.size();
     let object = mask.count();
@@ -136,22 +137,30 @@ pub fn segment(tendency: &Image, mask: &Mask, params: &SegmentParams) -> Vec<Pat
     patches
 }
 
-/// Split at the median coordinate along the longer side of the bounding box.
-fn bisect(mut pixels: Vec<u32>, w: usize) -> (Vec<u32>, Vec<u32>) {
-    let xy = |p: u32| ((p as usize % w) as u32, (p as usize / w) as u32);
+/// Split in two halves across the longer side of the bounding box, along a
+/// wavy line: pixels are ordered by their coordinate along that side plus a
+/// smooth noise of a third of its length, and split at the median. A
+/// straight cut at the median coordinate (the paper's) turns an even
+/// tendency into a grid of rectangles.
+fn bisect(pixels: Vec<u32>, w: usize) -> (Vec<u32>, Vec<u32>) {
+    let xy = |p: u32| ((p as usize % w) as f32, (p as usize / w) as f32);
     let (x0, y0, x1, y1) = super::bounds(pixels.iter().map(|&p| p as usize), w).expect("only oversized patches are bisected");
     let along_x = x1 - x0 >= y1 - y0;
-    let key = |p: u32| {
-        let (x, y) = xy(p);
-        if along_x {
-            (x, y)
-        } else {
-            (y, x)
-        }
-    };
-    pixels.sort_unstable_by_key(|&p| key(p));
-    let second = pixels.split_off(pixels.len() / 2);
-    let (mut a, mut b) = (pixels, second);
+    let extent = ((x1 - x0).max(y1 - y0) + 1) as f32;
+    let wave = extent / 2.0;
+    let seed = crate::rng::derive(0xb15ec7, &[pixels[0] as u64, pixels.len() as u64]);
+    let mut keyed: Vec<(f32, u32)> = pixels
+        .iter()
+        .map(|&p| {
+            let (x, y) = xy(p);
+            let noise = crate::samples::value_noise(seed, x / wave, y / wave) - 0.5;
+            ((if along_x { x } else { y }) + extent / 3.0 * noise, p)
+        })
+        .collect();
+    keyed.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let half = keyed.len() / 2;
+    let mut a: Vec<u32> = keyed[..half].iter().map(|k| k.1).collect();
+    let mut b: Vec<u32> = keyed[half..].iter().map(|k| k.1).collect();
     a.sort_unstable();
     b.sort_unstable();
     (a, b)

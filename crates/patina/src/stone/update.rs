@@ -109,18 +109,25 @@ pub fn best_offsets(patches: &[Patch], maps: &SearchMaps, params: &MatchParams) 
         .collect()
 }
 
-/// Per-pixel weights of eq. (2), w = exp(-k mean d(p0) t) for the patch
-/// p0 the pixel belongs to (1 off the object), softened by a Gaussian of
-/// [`WEIGHT_SIGMA`] so patch borders do not show as steps in how far the
-/// carving has worn.
-pub fn weights(tendency: &Image, mask: &Mask, patches: &[Patch], (k, t): (f32, f32)) -> Image {
+/// Per-pixel weights of eq. (2), w = exp(-k d_p t), 1 off the object.
+///
+/// Departure: the paper's d_p is the mean tendency of the patch p0 the
+/// pixel belongs to. Where the tendency is even (granite, a lettered
+/// slab), the segmentation's oversized regions are bisected into
+/// rectangles, and per-patch weights wore them to different depths: a
+/// visible lattice of blocks. Here d_p is the tendency's mean over a
+/// Gaussian of half the patch size `scale` around the pixel (normalized
+/// over the object): the same local average, without patch outlines. The
+/// map is then softened by [`WEIGHT_SIGMA`] at the object's edge.
+pub fn weights(tendency: &Image, mask: &Mask, scale: f32, (k, t): (f32, f32)) -> Image {
     let (w, h) = mask.size();
-    let mut map = Image::from_fn(w, h, 1, |_, _, p| p[0] = 1.0);
-    for patch in patches {
-        let mean_d = patch.pixels.iter().map(|&p| tendency.data()[p as usize]).sum::<f32>() / patch.pixels.len() as f32;
-        let weight = (-k * mean_d * t).exp();
-        patch.pixels.iter().for_each(|&p| map.data_mut()[p as usize] = weight);
-    }
+    let sigma = (scale / 2.0).max(1.0);
+    let inside = mask.to_image();
+    let weighted = Image::from_fn(w, h, 1, |x, y, p| p[0] = tendency.at(x, y, 0) * inside.at(x, y, 0));
+    let (num, den) = (crate::image::filter::gaussian_blur(&weighted, sigma), crate::image::filter::gaussian_blur(&inside, sigma));
+    let map = Image::from_fn(w, h, 1, |x, y, p| {
+        p[0] = if mask.get(x, y) { (-k * num.at(x, y, 0) / den.at(x, y, 0).max(1e-6) * t).exp() } else { 1.0 }
+    });
     crate::image::filter::gaussian_blur(&map, WEIGHT_SIGMA)
 }
 
@@ -149,8 +156,9 @@ pub const WEIGHT_SIGMA: f32 = 2.0;
 ///   of p0 and of its calm match p1 are uncorrelated, so eq. (2)'s plain
 ///   blend loses up to half the grain and reads as blur; with w and
 ///   sqrt(1 - w^2) the grain keeps its energy, now borrowed from calm
-///   stone, while a carved edge (in p0 only) still fades as w. Relief
-///   fades as eq. (2) says.
+///   stone (brought to the strength of p0's own grain, [`grain_gains`]),
+///   while a carved edge (in p0 only) still fades as w. Relief fades as
+///   eq. (2) says.
 ///
 /// w = 1 (t = 0) reproduces the input exactly.
 pub fn update(
@@ -171,6 +179,7 @@ pub fn update(
     let mut out = Image::from_fn(w, h, c, |x, y, p| {
         p.iter_mut().zip(base.pixel(x, y).iter().zip(fine.pixel(x, y))).for_each(|(o, (b, f))| *o = b + f)
     });
+    let gain = grain_gains(fine, mask, patches, offsets, scale);
     for ch in 0..c {
         // The mismatch on each edge: the blended gradient minus the own one.
         let mismatch = |horizontal: bool| -> Vec<f32> {
@@ -191,7 +200,8 @@ pub fn update(
                     let borrowed = (base.at(tx, ty, ch) - base.at(sx, sy, ch), fine.at(tx, ty, ch) - fine.at(sx, sy, ch));
                     let wt = 0.5 * (weights.at(x, y, 0) + weights.at(qx, qy, 0));
                     let keep = (1.0 - wt * wt).max(0.0).sqrt();
-                    *out = (1.0 - wt) * (borrowed.0 - own.0) + (wt - 1.0) * own.1 + keep * borrowed.1;
+                    let g = 0.5 * (gain.at(x, y, 0) + gain.at(qx, qy, 0));
+                    *out = (1.0 - wt) * (borrowed.0 - own.0) + (wt - 1.0) * own.1 + keep * g * borrowed.1;
                 }
             });
             m
@@ -202,6 +212,58 @@ pub fn update(
         }
     }
     out
+}
+
+/// Largest gain on borrowed grain: more amplified the JPEG noise of calm
+/// areas into a woven, coloured hatching on a rough sandstone globe.
+const MAX_GAIN: f32 = 1.5;
+
+/// Per pixel, the gain that brings the borrowed grain to the strength of
+/// the pixel's own: for each patch, the median absolute finest band over
+/// its pixels over the same over its match's (robust to the few carved
+/// edges, which are what wears), clamped to 1/2..[`MAX_GAIN`], then averaged over a
+/// Gaussian of half the patch size `scale` so no patch outline shows. A
+/// patch's calm match is calm because its grain is weaker; borrowed as it
+/// is, it left a granite or a rough sandstone smooth.
+fn grain_gains(fine: &Image, mask: &Mask, patches: &[Patch], offsets: &[(isize, isize)], scale: f32) -> Image {
+    let (w, h, c) = (fine.width(), fine.height(), fine.channels());
+    let amplitude = |i: usize| fine.data()[i * c..(i + 1) * c].iter().map(|v| v.abs()).sum::<f32>() / c as f32;
+    let median = |mut v: Vec<f32>| {
+        if v.is_empty() {
+            return 0.0;
+        }
+        let mid = v.len() / 2;
+        *v.select_nth_unstable_by(mid, f32::total_cmp).1
+    };
+    let gains: Vec<f32> = patches
+        .par_iter()
+        .zip(offsets)
+        .map(|(patch, &(dx, dy))| {
+            let own = median(patch.pixels.iter().map(|&p| amplitude(p as usize)).collect());
+            let shifted = patch.pixels.iter().filter_map(|&p| {
+                let (x, y) = ((p as usize % w) as isize + dx, (p as usize / w) as isize + dy);
+                (x >= 0 && y >= 0 && x < w as isize && y < h as isize && mask.get(x as usize, y as usize))
+                    .then(|| amplitude(y as usize * w + x as usize))
+            });
+            let other = median(shifted.collect());
+            if other > 1e-6 {
+                (own / other).clamp(0.5, MAX_GAIN)
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let mut map = Image::new(w, h, 1);
+    let mut weight = Image::new(w, h, 1);
+    for (patch, &g) in patches.iter().zip(&gains) {
+        for &p in &patch.pixels {
+            map.data_mut()[p as usize] = g;
+            weight.data_mut()[p as usize] = 1.0;
+        }
+    }
+    let sigma = (scale / 2.0).max(1.0);
+    let (num, den) = (crate::image::filter::gaussian_blur(&map, sigma), crate::image::filter::gaussian_blur(&weight, sigma));
+    Image::from_fn(w, h, 1, |x, y, p| p[0] = if den.at(x, y, 0) > 1e-6 { num.at(x, y, 0) / den.at(x, y, 0) } else { 1.0 })
 }
 
 #[cfg(test)]
@@ -230,7 +292,7 @@ mod tests {
         let (img, d, mask, patches, offsets) = relief();
         // t = 0 gives w = 1 for every patch.
         let zero = img.map(|_| 0.0);
-        let out = update((&img, &zero), &weights(&d, &mask, &patches, (0.01, 0.0)), &mask, &patches, &offsets, 12.0);
+        let out = update((&img, &zero), &weights(&d, &mask, 12.0, (0.01, 0.0)), &mask, &patches, &offsets, 12.0);
         let err = img.data().iter().zip(out.data()).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
         assert!(err <= 1e-5, "max error {err}");
     }
@@ -239,7 +301,7 @@ mod tests {
     fn borrowing_calm_gradients_wears_the_carving_and_keeps_the_form() {
         let (img, d, mask, patches, offsets) = relief();
         let zero = img.map(|_| 0.0);
-        let out = update((&img, &zero), &weights(&d, &mask, &patches, (0.01, 400.0)), &mask, &patches, &offsets, 12.0);
+        let out = update((&img, &zero), &weights(&d, &mask, 12.0, (0.01, 400.0)), &mask, &patches, &offsets, 12.0);
         let band = |im: &Image, x0: usize| {
             let smooth = gaussian_blur(im, 3.0);
             (8..56)
