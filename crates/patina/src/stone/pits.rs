@@ -14,13 +14,16 @@ use crate::image::Image;
 use rayon::prelude::*;
 
 /// Spacing (px) of the candidate grid.
-pub const SPACING: f32 = 5.0;
+pub const SPACING: f32 = 6.0;
 /// Share of light a pit's floor keeps.
 const FLOOR: f32 = 0.55;
 /// Brightening of the lit rim.
 const RIM: f32 = 0.12;
 /// Exponent on the tendency: pits concentrate where the stone is busiest.
-const FOCUS: f32 = 1.5;
+const FOCUS: f32 = 2.0;
+/// Share of the candidates open where d = 1 once fully weathered: more
+/// read as pepper sprinkled on the stone.
+const MAX_OPEN: f32 = 0.35;
 
 /// One candidate pit: centre, radius and opening threshold.
 struct Pit {
@@ -64,7 +67,7 @@ pub fn pit(linear: &Image, tendency: &Image, k: f32, t: f32, seed: u64) -> Image
                 for cx in gx - 1..=gx + 1 {
                     let p = candidate(seed, cx, cy);
                     let (px, py) = (p.x.clamp(0.0, w as f32 - 1.0) as usize, p.y.clamp(0.0, h as f32 - 1.0) as usize);
-                    if tendency.at(px, py, 0).powf(FOCUS) * growth <= p.threshold {
+                    if tendency.at(px, py, 0).powf(FOCUS) * growth * MAX_OPEN <= p.threshold {
                         continue;
                     }
                     let (dx, dy) = (fx - p.x, fy - p.y);
