@@ -412,7 +412,10 @@ fn stone_writes_frames_masks_and_is_the_same_on_any_thread_count() {
     let first = patina::image::io::load(a.join("mask_t000.png")).unwrap();
     let last = patina::image::io::load(a.join("mask_t002.png")).unwrap();
     let area = |m: &patina::Image| m.data().iter().filter(|&&v| v > 0.5).count();
-    assert_eq!(area(&first), slab.count());
+    // The object at t = 0 is the mask dilated by the manifest's mask_dilation (its rim).
+    let manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(a.join("manifest.json")).unwrap()).unwrap();
+    let dilation = manifest["params"]["mask_dilation"].as_u64().expect("mask_dilation in the manifest") as usize;
+    assert_eq!(area(&first), slab.dilate(dilation).count());
     assert!(area(&last) < area(&first), "the silhouette should erode");
     fails_cleanly(&dir, &["stone", s(&img), "--mask", s(&dir.join("nothing.png")), "-o", s(&dir.join("c"))], "nothing.png");
     fails_cleanly(&dir, &["stone", s(&img), "-o", s(&dir.join("c")), "--times", "50,10"], "ascending");

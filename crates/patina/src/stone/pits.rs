@@ -6,17 +6,18 @@
 //! Candidate pits sit one per cell of a jittered grid. Each has its own
 //! threshold u in [0, 1) and opens once d(x)^nu' (1 - exp(-k t)) > u, so
 //! pits appear first and densest where the tendency is high and only ever
-//! grow in number with t. A pit is a small disc (0.6 to 1.8 px radius)
-//! darkened like a cavity in shadow, its rim on the side facing the light
-//! (the top left) slightly brightened, anti-aliased at the edge.
+//! grow in number with t. A pit is a small cavity (0.6 to 2 px radius, its
+//! outline wobbling by up to half of that), darkened like a cavity in
+//! shadow by its own depth, its rim on the side facing the light (the top
+//! left) slightly brightened, anti-aliased at the edge.
 
 use crate::image::Image;
 use rayon::prelude::*;
 
 /// Spacing (px) of the candidate grid.
 pub const SPACING: f32 = 6.0;
-/// Share of light a pit's floor keeps.
-const FLOOR: f32 = 0.55;
+/// Share of light the darkest pit's floor keeps (the others up to 0.3 more).
+const FLOOR: f32 = 0.5;
 /// Brightening of the lit rim.
 const RIM: f32 = 0.12;
 /// Exponent on the tendency: pits concentrate where the stone is busiest.
@@ -31,16 +32,26 @@ struct Pit {
     y: f32,
     radius: f32,
     threshold: f32,
+    /// Share of light its floor keeps.
+    floor: f32,
+    /// Outline wobble: amplitudes and phases of the 2nd and 3rd angular
+    /// harmonics of the radius, so no two pits are the same round dot.
+    wobble: [f32; 4],
 }
 
 fn candidate(seed: u64, cx: i64, cy: i64) -> Pit {
     let h = crate::rng::derive(seed ^ 0x9175, &[cx as u64, cy as u64]);
     let unit = |shift: u32| ((h >> shift) & 0xffff) as f32 / 65536.0;
+    let g = crate::rng::derive(h, &[1]);
+    let more = |shift: u32| ((g >> shift) & 0xffff) as f32 / 65536.0;
+    let tau = std::f32::consts::TAU;
     Pit {
         x: (cx as f32 + unit(0)) * SPACING,
         y: (cy as f32 + unit(16)) * SPACING,
-        radius: 0.6 + 1.2 * unit(32).powi(2),
+        radius: 0.6 + 1.4 * unit(32).powi(2),
         threshold: unit(48),
+        floor: FLOOR + 0.3 * more(0),
+        wobble: [0.45 * more(16), tau * more(32), 0.3 * more(48), tau * more(8)],
     }
 }
 
@@ -72,11 +83,17 @@ pub fn pit(linear: &Image, tendency: &Image, k: f32, t: f32, seed: u64) -> Image
                     }
                     let (dx, dy) = (fx - p.x, fy - p.y);
                     let r = (dx * dx + dy * dy).sqrt();
-                    // Anti-aliased disc: full inside r - 0.5, none past r + 0.5.
-                    let inside = (p.radius + 0.5 - r).clamp(0.0, 1.0);
-                    factor *= 1.0 - (1.0 - FLOOR) * inside;
+                    if r > 2.0 * p.radius + 2.0 {
+                        continue;
+                    }
+                    let angle = dy.atan2(dx);
+                    let [a2, p2, a3, p3] = p.wobble;
+                    let radius = p.radius * (1.0 + a2 * (2.0 * angle + p2).cos() + a3 * (3.0 * angle + p3).cos());
+                    // Anti-aliased outline: full inside radius - 0.5, none past radius + 0.5.
+                    let inside = (radius + 0.5 - r).clamp(0.0, 1.0);
+                    factor *= 1.0 - (1.0 - p.floor) * inside;
                     // The lit rim: a thin ring on the upper-left side.
-                    let ring = (1.0 - (r - p.radius - 0.7).abs()).clamp(0.0, 1.0) * ((-dx - dy) / (r + 1e-3) * 0.7).max(0.0);
+                    let ring = (1.0 - (r - radius - 0.7).abs()).clamp(0.0, 1.0) * ((-dx - dy) / (r + 1e-3) * 0.7).max(0.0);
                     factor *= 1.0 + RIM * ring;
                 }
             }
