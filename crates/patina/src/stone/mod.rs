@@ -120,6 +120,9 @@ pub struct Prepared {
     pub original: Image,
     /// The object: the given mask dilated by `params.mask_dilation`.
     pub mask: Mask,
+    /// The object proper, the given mask: the only pixels weathered stone
+    /// is borrowed from (the rim is part stone, part background).
+    pub tight: Mask,
     /// Whether the mask came from the user (or alpha); erosion needs one.
     pub masked: bool,
     pub tendency: Image,
@@ -192,7 +195,7 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
     let seg = SegmentParams { k: params.seg_k, n: params.n, max_factor: params.max_patch };
     let patches = segment::segment(&tendency, &mask, &seg);
     let intensity = luminance(&linear);
-    let maps = SearchMaps { intensity: &intensity, tendency: &tendency, mask: &mask };
+    let maps = SearchMaps { intensity: &intensity, tendency: &tendency, mask: &tight };
     let offsets = update::best_offsets(&patches, &maps, &MatchParams { wd: params.wd, ..Default::default() });
     let sample = match rough_sample {
         Some(s) => luminance(&s.map(|v| v.max(0.0).powf(GAMMA))),
@@ -215,7 +218,21 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         p.iter_mut().zip(rgb.pixel(x, y).iter().zip(base.pixel(x, y))).for_each(|(o, (l, b))| *o = l - b)
     });
     let scale = (mask.count() as f32 / patches.len().max(1) as f32).sqrt();
-    Ok(Prepared { linear, original: rgb, mask, masked, tendency, patches, offsets, base, grain, scale, fractal, params: params.clone() })
+    Ok(Prepared {
+        linear,
+        original: rgb,
+        mask,
+        tight,
+        masked,
+        tendency,
+        patches,
+        offsets,
+        base,
+        grain,
+        scale,
+        fractal,
+        params: params.clone(),
+    })
 }
 
 fn check_params(p: &StoneParams) -> Result<()> {
@@ -255,8 +272,9 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let mut frames = Vec::with_capacity(times.len());
     for (i, &t) in times.iter().enumerate() {
         let weights = update::weights(&prep.tendency, &prep.mask, prep.scale, (p.k, t));
-        let smoothed = update::update((&prep.base, &prep.grain), &weights, &prep.mask, &prep.patches, &prep.offsets, prep.scale)
-            .map(|v| v.max(0.0).powf(GAMMA));
+        let smoothed =
+            update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.tight), &prep.patches, &prep.offsets, prep.scale)
+                .map(|v| v.max(0.0).powf(GAMMA));
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
         let rough = if p.pits { pits::pit(&rough, &prep.tendency, p.k, t, seed) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);

@@ -139,7 +139,8 @@ pub const WEIGHT_SIGMA: f32 = 2.0;
 /// every object gradient of the relief becomes the blend
 /// grad B_t(x) = w grad B_0(x) + (1 - w) grad B_0(x + c1 - c0)
 /// of its own and its patch's match (eq. 1's offset; where the shifted edge
-/// is off the object, its own is kept), the finest band becomes
+/// is off `sources`, the object proper without its rim, its own is kept),
+/// on every edge inside `object`, the finest band becomes
 /// grad F_t(x) = w grad F_0(x) + sqrt(1 - w^2) grad F_0(x + c1 - c0),
 /// and the image is integrated from their sum. Returns base + fine,
 /// weathered.
@@ -164,7 +165,7 @@ pub const WEIGHT_SIGMA: f32 = 2.0;
 pub fn update(
     (base, fine): (&Image, &Image),
     weights: &Image,
-    mask: &Mask,
+    (object, sources): (&Mask, &Mask),
     patches: &[Patch],
     offsets: &[(isize, isize)],
     scale: f32,
@@ -175,11 +176,11 @@ pub fn update(
         patch.pixels.iter().for_each(|&p| offset[p as usize] = off);
     }
     let lambda = 1.0 / scale.max(1.0).powi(2);
-    let inside = |x: isize, y: isize| x >= 0 && y >= 0 && x < w as isize && y < h as isize && mask.get(x as usize, y as usize);
+    let inside = |x: isize, y: isize| x >= 0 && y >= 0 && x < w as isize && y < h as isize && sources.get(x as usize, y as usize);
     let mut out = Image::from_fn(w, h, c, |x, y, p| {
         p.iter_mut().zip(base.pixel(x, y).iter().zip(fine.pixel(x, y))).for_each(|(o, (b, f))| *o = b + f)
     });
-    let gain = grain_gains(fine, mask, patches, offsets, scale);
+    let gain = grain_gains(fine, sources, patches, offsets, scale);
     for ch in 0..c {
         // The mismatch on each edge: the blended gradient minus the own one.
         let mismatch = |horizontal: bool| -> Vec<f32> {
@@ -187,7 +188,7 @@ pub fn update(
             m.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
                 for (x, out) in row.iter_mut().enumerate() {
                     let (qx, qy) = if horizontal { (x + 1, y) } else { (x, y + 1) };
-                    if qx >= w || qy >= h || !mask.get(x, y) || !mask.get(qx, qy) {
+                    if qx >= w || qy >= h || !object.get(x, y) || !object.get(qx, qy) {
                         continue;
                     }
                     let (dx, dy) = offset[y * w + x];
@@ -292,7 +293,7 @@ mod tests {
         let (img, d, mask, patches, offsets) = relief();
         // t = 0 gives w = 1 for every patch.
         let zero = img.map(|_| 0.0);
-        let out = update((&img, &zero), &weights(&d, &mask, 12.0, (0.01, 0.0)), &mask, &patches, &offsets, 12.0);
+        let out = update((&img, &zero), &weights(&d, &mask, 12.0, (0.01, 0.0)), (&mask, &mask), &patches, &offsets, 12.0);
         let err = img.data().iter().zip(out.data()).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
         assert!(err <= 1e-5, "max error {err}");
     }
@@ -301,7 +302,7 @@ mod tests {
     fn borrowing_calm_gradients_wears_the_carving_and_keeps_the_form() {
         let (img, d, mask, patches, offsets) = relief();
         let zero = img.map(|_| 0.0);
-        let out = update((&img, &zero), &weights(&d, &mask, 12.0, (0.01, 400.0)), &mask, &patches, &offsets, 12.0);
+        let out = update((&img, &zero), &weights(&d, &mask, 12.0, (0.01, 400.0)), (&mask, &mask), &patches, &offsets, 12.0);
         let band = |im: &Image, x0: usize| {
             let smooth = gaussian_blur(im, 3.0);
             (8..56)
