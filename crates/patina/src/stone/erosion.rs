@@ -8,6 +8,8 @@ use crate::image::{Image, Mask};
 use crate::samples::fractal_noise;
 use rayon::prelude::*;
 
+/// Size (px) of the chips the outline breaks into.
+const CHIP: f32 = 10.0;
 /// Half side of the exposure window (7 x 7).
 const WINDOW: isize = 3;
 /// Parts thinner than this (px) erode more slowly, in proportion.
@@ -32,12 +34,20 @@ pub struct Erosion {
 }
 
 impl Erosion {
-    /// Start from `linear` and its object mask. Durabilities are 0.6 to 1.4,
-    /// from a 3-octave noise at 6 px so the stone breaks in grains and
-    /// chips rather than eroding as a smooth offset curve.
+    /// Start from `linear` and its object mask. Durabilities are 0.45 to 1.75,
+    /// from a 3-octave noise at [`CHIP`] px stretched twofold, so soft
+    /// pockets go fast and hard lumps stand: the stone breaks in chips
+    /// rather than eroding as a smooth offset curve (0.6 to 1.4, unstretched,
+    /// read as a smooth offset).
     pub fn new(linear: &Image, object: &Mask, bleed: f32, seed: u64) -> Self {
         let (w, h) = object.size();
-        let durability = (0..w * h).map(|i| 0.6 + 0.8 * fractal_noise(seed ^ 0xd0_0b1e, (i % w) as f32, (i / w) as f32, 6.0, 3)).collect();
+        let durability = (0..w * h)
+            .map(|i| {
+                let n = fractal_noise(seed ^ 0xd0_0b1e, (i % w) as f32, (i / w) as f32, CHIP, 3);
+                // Fractal noise gathers near 0.5: stretched, soft and hard stone alternate.
+                0.45 + 1.3 * ((n - 0.5) * 2.0 + 0.5).clamp(0.0, 1.0)
+            })
+            .collect();
         Erosion { object: object.clone(), colours: linear.clone(), durability, protection: thinness(object), bleed }
     }
 
