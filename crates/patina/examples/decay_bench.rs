@@ -34,8 +34,9 @@ fn diffusion_table() {
         let mask = patina::Mask::from_fn(side, side, |x, y| (x as f32 - c).powi(2) + (y as f32 - c).powi(2) < (0.45 * side as f32).powi(2));
         let (mut d, _) = degree::initial(&mask, 0.2, 0.06, 1).expect("initial");
         let t = Instant::now();
+        let diffuser = degree::Diffuser::new(&mask, None, &decay::Diffusion::default());
         for k in 1..=8 {
-            degree::step(&mut d, &mask, None, &decay::Diffusion::default(), 1, k);
+            diffuser.step(&mut d, 1, k);
         }
         secs.push(t.elapsed().as_secs_f64());
     }

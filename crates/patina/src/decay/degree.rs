@@ -96,7 +96,7 @@ pub fn channel_mean(painting: &Image) -> Image {
 pub struct Diffusion {
     /// Diffusion length per frame, as a fraction of the longer image side:
     /// the heat equation (eq. 4) runs for time sigma^2 / (2 alpha) per
-    /// frame, a Gaussian of that sigma ([`step`]).
+    /// frame, a Gaussian of that sigma ([`Diffuser`]).
     pub spread: f32,
     /// Upper bound of the self-growth Z ~ U(0, growth) added per frame
     /// where D > 0.25 (eq. 6).
@@ -109,7 +109,7 @@ impl Default for Diffusion {
     }
 }
 
-/// One frame of decay diffusion (eqs. 4-7), in place.
+/// Decay diffusion (eqs. 4-7), one frame per [`Diffuser::step`], in place.
 ///
 /// Eq. 4, dD/dt = alpha Lap D, run for one frame's time T on the plane is
 /// exactly a Gaussian blur with sigma^2 = 2 alpha T, where sigma =
@@ -129,45 +129,71 @@ impl Default for Diffusion {
 /// background gap narrower than about sigma between two parts of the mask,
 /// which exact Neumann diffusion would not. In exchange, the cost is that
 /// of two wide blurs ([`gaussian_blur`] on a shrunken copy), linear in the
-/// pixel count. The explicit scheme needed (sigma^2 / 0.5) steps of the
+/// pixel count (the mask's own blurs, the denominators, are made once per
+/// sequence). The explicit scheme needed (sigma^2 / 0.5) steps of the
 /// whole image, growing with the 4th power of the side: 86 s per frame at
 /// 2048 px.
-pub fn step(degree: &mut Image, mask: &Mask, rate: Option<&Image>, params: &Diffusion, seed: u64, frame: u64) {
-    let (w, h) = mask.size();
-    let sigma = params.spread * w.max(h) as f32;
-    let old = degree.clone();
-    let bits = mask.bits();
-    let rate_at = |i: usize| rate.map_or(1.0, |r| r.data()[i]);
-    if sigma > 0.0 {
+pub struct Diffuser<'a> {
+    mask: &'a Mask,
+    rate: Option<&'a Image>,
+    params: Diffusion,
+    sigma: f32,
+    /// G_sigma * M and, when some rate exceeds 1, G_(sigma sqrt 2) * M:
+    /// the normalised convolution's denominators, the same every frame.
+    normalisers: (Vec<f32>, Option<Vec<f32>>),
+}
+
+impl<'a> Diffuser<'a> {
+    /// The diffusion of one sequence over `mask`, with the optional rate map.
+    pub fn new(mask: &'a Mask, rate: Option<&'a Image>, params: &Diffusion) -> Self {
+        let (w, h) = mask.size();
+        let sigma = params.spread * w.max(h) as f32;
+        let bits = mask.bits();
         let inside = Image::from_fn(w, h, 1, |x, y, p| p[0] = f32::from(u8::from(bits[y * w + x])));
-        let masked = Image::from_fn(w, h, 1, |x, y, p| p[0] = if bits[y * w + x] { old.at(x, y, 0) } else { 0.0 });
-        let diffused = |s: f32| -> Vec<f32> {
-            let (num, den) = (gaussian_blur(&masked, s), gaussian_blur(&inside, s));
-            num.data().iter().zip(den.data()).map(|(a, b)| if *b > 1e-6 { a / b } else { 0.0 }).collect()
-        };
-        let once = diffused(sigma);
-        let twice = (0..w * h).any(|i| bits[i] && rate_at(i) > 1.0).then(|| diffused(sigma * std::f32::consts::SQRT_2));
-        degree.data_mut().par_iter_mut().enumerate().filter(|(i, _)| bits[*i]).for_each(|(i, d)| {
-            let r = rate_at(i).clamp(0.0, 2.0);
-            *d = match &twice {
-                Some(t) if r > 1.0 => once[i] + (r - 1.0) * (t[i] - once[i]),
-                _ => *d + r * (once[i] - *d),
+        let blur = |s: f32| gaussian_blur(&inside, s).data().to_vec();
+        let faster = (0..w * h).any(|i| bits[i] && rate.map_or(1.0, |r| r.data()[i]) > 1.0);
+        let normalisers =
+            if sigma > 0.0 { (blur(sigma), faster.then(|| blur(sigma * std::f32::consts::SQRT_2))) } else { (Vec::new(), None) };
+        Diffuser { mask, rate, params: *params, sigma, normalisers }
+    }
+
+    /// One frame of diffusion and growth of `degree` (see the type's doc).
+    pub fn step(&self, degree: &mut Image, seed: u64, frame: u64) {
+        let (mask, rate, params, sigma) = (self.mask, self.rate, &self.params, self.sigma);
+        let (w, h) = mask.size();
+        let old = degree.clone();
+        let bits = mask.bits();
+        let rate_at = |i: usize| rate.map_or(1.0, |r| r.data()[i]);
+        if sigma > 0.0 {
+            let masked = Image::from_fn(w, h, 1, |x, y, p| p[0] = if bits[y * w + x] { old.at(x, y, 0) } else { 0.0 });
+            let diffused = |s: f32, den: &[f32]| -> Vec<f32> {
+                let num = gaussian_blur(&masked, s);
+                num.data().iter().zip(den).map(|(a, b)| if *b > 1e-6 { a / b } else { 0.0 }).collect()
             };
+            let once = diffused(sigma, &self.normalisers.0);
+            let twice = self.normalisers.1.as_ref().map(|den| diffused(sigma * std::f32::consts::SQRT_2, den));
+            degree.data_mut().par_iter_mut().enumerate().filter(|(i, _)| bits[*i]).for_each(|(i, d)| {
+                let r = rate_at(i).clamp(0.0, 2.0);
+                *d = match &twice {
+                    Some(t) if r > 1.0 => once[i] + (r - 1.0) * (t[i] - once[i]),
+                    _ => *d + r * (once[i] - *d),
+                };
+            });
+        }
+        degree.data_mut().par_chunks_mut(w).zip(old.data().par_chunks(w)).enumerate().for_each(|(y, (row, before))| {
+            let mut g = rng::generator(seed, &[0x96, frame, y as u64]);
+            for (x, (d, &b)) in row.iter_mut().zip(before).enumerate() {
+                let z: f32 = g.gen::<f32>() * params.growth;
+                if !bits[y * w + x] {
+                    continue;
+                }
+                if *d > GROWTH_THRESHOLD {
+                    *d += rate_at(y * w + x) * z;
+                }
+                *d = d.clamp(0.0, 1.0).max(b);
+            }
         });
     }
-    degree.data_mut().par_chunks_mut(w).zip(old.data().par_chunks(w)).enumerate().for_each(|(y, (row, before))| {
-        let mut g = rng::generator(seed, &[0x96, frame, y as u64]);
-        for (x, (d, &b)) in row.iter_mut().zip(before).enumerate() {
-            let z: f32 = g.gen::<f32>() * params.growth;
-            if !bits[y * w + x] {
-                continue;
-            }
-            if *d > GROWTH_THRESHOLD {
-                *d += rate_at(y * w + x) * z;
-            }
-            *d = d.clamp(0.0, 1.0).max(b);
-        }
-    });
 }
 
 #[cfg(test)]
@@ -193,7 +219,7 @@ mod tests {
     }
 
     /// The finite-difference heat equation with Neumann borders at the
-    /// mask's edge, run for time sigma^2 / 2: the reference [`step`]'s
+    /// mask's edge, run for time sigma^2 / 2: the reference [`Diffuser::step`]'s
     /// normalised convolution stands in for.
     fn explicit_heat(d: &Image, mask: &Mask, sigma: f32) -> Image {
         let (w, h) = mask.size();
@@ -229,7 +255,7 @@ mod tests {
         let (d0, _) = initial(&mask, 0.2, 0.15, 4).unwrap();
         let params = Diffusion { spread: 0.06, growth: 0.0 };
         let mut d = d0.clone();
-        step(&mut d, &mask, None, &params, 1, 1);
+        Diffuser::new(&mask, None, &params).step(&mut d, 1, 1);
         let want = explicit_heat(&d0, &mask, 0.06 * 80.0);
         let (mut err, mut spread, mut n) = (0f32, 0f32, 0f32);
         for (i, &inside) in mask.bits().iter().enumerate() {
@@ -249,7 +275,7 @@ mod tests {
         let mask = disc(80, 60);
         let (mut d, _) = initial(&mask, 0.2, 0.15, 3).unwrap();
         let before = d.clone();
-        step(&mut d, &mask, None, &Diffusion::default(), 3, 0);
+        Diffuser::new(&mask, None, &Diffusion::default()).step(&mut d, 3, 0);
         let count = |img: &Image| img.data().iter().filter(|&&v| v > 0.0).count();
         assert!(count(&d) > count(&before));
         for ((a, b), m) in d.data().iter().zip(before.data()).zip(mask.bits()) {

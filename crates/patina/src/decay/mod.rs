@@ -5,7 +5,7 @@
 //! The pipeline: a decay texture of the photo's size ([`texture`]), the
 //! object's shading ([`shading`]), an initial degree map ([`degree::initial`],
 //! Algorithm 1, or a user's painting), its diffusion over the frames
-//! ([`degree::step`], eqs. 4-7), and Lab compositing ([`composite`], eq. 3).
+//! ([`degree::Diffuser`], eqs. 4-7), and Lab compositing ([`composite`], eq. 3).
 //! [`prepare`] does the once-per-photo work, [`sequence`] renders frames.
 
 pub mod composite;
@@ -178,9 +178,10 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
     // Simulate every frame's degree map (eqs. 4-7), then re-time them so
     // the visible share grows evenly (see `paced`).
     let mut simulated = vec![prep.degree.clone()];
+    let diffuser = degree::Diffuser::new(&prep.mask, prep.rate.as_ref(), &prep.params.diffusion);
     for k in 1..frames {
         let mut d = simulated[k - 1].clone();
-        degree::step(&mut d, &prep.mask, prep.rate.as_ref(), &prep.params.diffusion, seed, k as u64);
+        diffuser.step(&mut d, seed, k as u64);
         simulated.push(d);
     }
     let ends = (visible_share(&simulated[0], &prep.onset, &prep.mask), visible_share(&simulated[frames - 1], &prep.onset, &prep.mask));
