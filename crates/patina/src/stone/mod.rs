@@ -138,6 +138,8 @@ pub struct Prepared {
     /// The patch scale (px): sqrt(object pixels / patches). The update
     /// follows borrowed gradients up to this scale.
     pub scale: f32,
+    /// What the update borrows, the same at every t.
+    pub borrowing: update::Borrowing,
     pub fractal: Fractal,
     pub params: StoneParams,
 }
@@ -218,6 +220,7 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         p.iter_mut().zip(rgb.pixel(x, y).iter().zip(base.pixel(x, y))).for_each(|(o, (l, b))| *o = l - b)
     });
     let scale = (mask.count() as f32 / patches.len().max(1) as f32).sqrt();
+    let borrowing = update::Borrowing::new(&tendency, &grain, (&mask, &tight), (&patches, &offsets), scale);
     Ok(Prepared {
         linear,
         original: rgb,
@@ -230,6 +233,7 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         base,
         grain,
         scale,
+        borrowing,
         fractal,
         params: params.clone(),
     })
@@ -271,10 +275,9 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let mut done = 0;
     let mut frames = Vec::with_capacity(times.len());
     for (i, &t) in times.iter().enumerate() {
-        let weights = update::weights(&prep.tendency, &prep.mask, prep.scale, (p.k, t));
+        let weights = prep.borrowing.weights(&prep.mask, (p.k, t));
         let smoothed =
-            update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.tight), &prep.patches, &prep.offsets, prep.scale)
-                .map(|v| v.max(0.0).powf(GAMMA));
+            update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.tight), &prep.borrowing).map(|v| v.max(0.0).powf(GAMMA));
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
         let rough = if p.pits { pits::pit(&rough, &prep.tendency, p.k, t, seed) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
@@ -310,8 +313,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
             for idx in set_pixels(&eroded) {
                 let (x, y, a) = (idx % w, idx / w, coverage.data()[idx]);
                 if a > 0.0 {
-                    let stone = weathered.pixel(x, y).to_vec();
-                    image.pixel_mut(x, y).iter_mut().zip(stone).for_each(|(o, v)| *o = a * encode(v) + (1.0 - a) * *o);
+                    image.pixel_mut(x, y).iter_mut().zip(weathered.pixel(x, y)).for_each(|(o, &v)| *o = a * encode(v) + (1.0 - a) * *o);
                 }
             }
         }

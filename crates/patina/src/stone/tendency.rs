@@ -61,9 +61,8 @@ pub fn tendency(linear: &Image, mask: &Mask, eta: f32, m: f32) -> Image {
 }
 
 /// `d` (measured on `object`) carried over the pixels of `grown` outside
-/// `object`: each takes the value of its nearest object pixel along rows
-/// and columns (the largest of its up to 8 neighbours, repeated ring by
-/// ring), so the rim weathers as the stone next to it.
+/// `object`, ring by ring: each takes the largest value among its known
+/// 4-neighbours, so the rim weathers as the stone next to it.
 pub fn extend(d: &Image, object: &Mask, grown: &Mask) -> Image {
     let (w, h) = object.size();
     let mut out = d.clone();

@@ -109,26 +109,62 @@ pub fn best_offsets(patches: &[Patch], maps: &SearchMaps, params: &MatchParams) 
         .collect()
 }
 
-/// Per-pixel weights of eq. (2), w = exp(-k d_p t), 1 off the object.
-///
-/// Departure: the paper's d_p is the mean tendency of the patch p0 the
-/// pixel belongs to. Where the tendency is even (granite, a lettered
-/// slab), the segmentation's oversized regions are bisected into
-/// rectangles, and per-patch weights wore them to different depths: a
-/// visible lattice of blocks. Here d_p is the tendency's mean over a
-/// Gaussian of half the patch size `scale` around the pixel (normalized
-/// over the object): the same local average, without patch outlines. The
-/// map is then softened by [`WEIGHT_SIGMA`] at the object's edge.
-pub fn weights(tendency: &Image, mask: &Mask, scale: f32, (k, t): (f32, f32)) -> Image {
-    let (w, h) = mask.size();
-    let sigma = (scale / 2.0).max(1.0);
-    let inside = mask.to_image();
-    let weighted = Image::from_fn(w, h, 1, |x, y, p| p[0] = tendency.at(x, y, 0) * inside.at(x, y, 0));
-    let (num, den) = (crate::image::filter::gaussian_blur(&weighted, sigma), crate::image::filter::gaussian_blur(&inside, sigma));
-    let map = Image::from_fn(w, h, 1, |x, y, p| {
-        p[0] = if mask.get(x, y) { (-k * num.at(x, y, 0) / den.at(x, y, 0).max(1e-6) * t).exp() } else { 1.0 }
-    });
-    crate::image::filter::gaussian_blur(&map, WEIGHT_SIGMA)
+/// What the update borrows from the photo, the same at every t: each
+/// pixel's match offset (its patch's, from eq. 1), the gain on borrowed
+/// grain ([`grain_gains`]), the local mean tendency the weights come from,
+/// and the patch scale.
+pub struct Borrowing {
+    offset: Vec<(isize, isize)>,
+    gain: Image,
+    local_tendency: Image,
+    scale: f32,
+}
+
+impl Borrowing {
+    /// For `patches` and their `offsets` over `object`, borrowing only from
+    /// `sources`; `fine` is the finest band, `scale` the patch size.
+    pub fn new(
+        tendency: &Image,
+        fine: &Image,
+        (object, sources): (&Mask, &Mask),
+        (patches, offsets): (&[Patch], &[(isize, isize)]),
+        scale: f32,
+    ) -> Self {
+        let mut offset = vec![(0isize, 0isize); object.width() * object.height()];
+        for (patch, &off) in patches.iter().zip(offsets) {
+            patch.pixels.iter().for_each(|&p| offset[p as usize] = off);
+        }
+        let sigma = (scale / 2.0).max(1.0);
+        let local_tendency = local_mean(tendency, &object.to_image(), sigma, 0.0);
+        Borrowing { offset, gain: grain_gains(fine, sources, patches, offsets, scale), local_tendency, scale }
+    }
+
+    /// Per-pixel weights of eq. (2), w = exp(-k d_p t), 1 off `object`.
+    ///
+    /// Departure: the paper's d_p is the mean tendency of the patch p0 the
+    /// pixel belongs to. Where the tendency is even (granite, a lettered
+    /// slab), the segmentation's oversized regions are bisected into
+    /// rectangles, and per-patch weights wore them to different depths: a
+    /// visible lattice of blocks. Here d_p is the tendency's mean over a
+    /// Gaussian of half the patch size around the pixel (normalized over
+    /// the object): the same local average, without patch outlines. The
+    /// map is then softened by [`WEIGHT_SIGMA`] at the object's edge.
+    pub fn weights(&self, object: &Mask, (k, t): (f32, f32)) -> Image {
+        let (w, h) = object.size();
+        let map =
+            Image::from_fn(w, h, 1, |x, y, p| p[0] = if object.get(x, y) { (-k * self.local_tendency.at(x, y, 0) * t).exp() } else { 1.0 });
+        crate::image::filter::gaussian_blur(&map, WEIGHT_SIGMA)
+    }
+}
+
+/// The mean of `values` over a Gaussian of `sigma` around each pixel,
+/// counting only the pixels where `inside` is 1 (a normalised
+/// convolution); `fallback` where no such pixel is near.
+fn local_mean(values: &Image, inside: &Image, sigma: f32, fallback: f32) -> Image {
+    let (w, h) = values.size();
+    let weighted = Image::from_fn(w, h, 1, |x, y, p| p[0] = values.at(x, y, 0) * inside.at(x, y, 0));
+    let (num, den) = (crate::image::filter::gaussian_blur(&weighted, sigma), crate::image::filter::gaussian_blur(inside, sigma));
+    Image::from_fn(w, h, 1, |x, y, p| p[0] = if den.at(x, y, 0) > 1e-6 { num.at(x, y, 0) / den.at(x, y, 0) } else { fallback })
 }
 
 /// Blur of the weight map (px).
@@ -162,25 +198,14 @@ pub const WEIGHT_SIGMA: f32 = 2.0;
 ///   eq. (2) says.
 ///
 /// w = 1 (t = 0) reproduces the input exactly.
-pub fn update(
-    (base, fine): (&Image, &Image),
-    weights: &Image,
-    (object, sources): (&Mask, &Mask),
-    patches: &[Patch],
-    offsets: &[(isize, isize)],
-    scale: f32,
-) -> Image {
+pub fn update((base, fine): (&Image, &Image), weights: &Image, (object, sources): (&Mask, &Mask), borrowing: &Borrowing) -> Image {
     let (w, h, c) = (base.width(), base.height(), base.channels());
-    let mut offset = vec![(0isize, 0isize); w * h];
-    for (patch, &off) in patches.iter().zip(offsets) {
-        patch.pixels.iter().for_each(|&p| offset[p as usize] = off);
-    }
-    let lambda = 1.0 / scale.max(1.0).powi(2);
+    let (offset, gain) = (&borrowing.offset, &borrowing.gain);
+    let lambda = 1.0 / borrowing.scale.max(1.0).powi(2);
     let inside = |x: isize, y: isize| x >= 0 && y >= 0 && x < w as isize && y < h as isize && sources.get(x as usize, y as usize);
     let mut out = Image::from_fn(w, h, c, |x, y, p| {
         p.iter_mut().zip(base.pixel(x, y).iter().zip(fine.pixel(x, y))).for_each(|(o, (b, f))| *o = b + f)
     });
-    let gain = grain_gains(fine, sources, patches, offsets, scale);
     for ch in 0..c {
         // The mismatch on each edge: the blended gradient minus the own one.
         let mismatch = |horizontal: bool| -> Vec<f32> {
@@ -262,9 +287,7 @@ fn grain_gains(fine: &Image, mask: &Mask, patches: &[Patch], offsets: &[(isize, 
             weight.data_mut()[p as usize] = 1.0;
         }
     }
-    let sigma = (scale / 2.0).max(1.0);
-    let (num, den) = (crate::image::filter::gaussian_blur(&map, sigma), crate::image::filter::gaussian_blur(&weight, sigma));
-    Image::from_fn(w, h, 1, |x, y, p| p[0] = if den.at(x, y, 0) > 1e-6 { num.at(x, y, 0) / den.at(x, y, 0) } else { 1.0 })
+    local_mean(&map, &weight, (scale / 2.0).max(1.0), 1.0)
 }
 
 #[cfg(test)]
@@ -293,7 +316,8 @@ mod tests {
         let (img, d, mask, patches, offsets) = relief();
         // t = 0 gives w = 1 for every patch.
         let zero = img.map(|_| 0.0);
-        let out = update((&img, &zero), &weights(&d, &mask, 12.0, (0.01, 0.0)), (&mask, &mask), &patches, &offsets, 12.0);
+        let borrowing = Borrowing::new(&d, &zero, (&mask, &mask), (&patches, &offsets), 12.0);
+        let out = update((&img, &zero), &borrowing.weights(&mask, (0.01, 0.0)), (&mask, &mask), &borrowing);
         let err = img.data().iter().zip(out.data()).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
         assert!(err <= 1e-5, "max error {err}");
     }
@@ -302,7 +326,8 @@ mod tests {
     fn borrowing_calm_gradients_wears_the_carving_and_keeps_the_form() {
         let (img, d, mask, patches, offsets) = relief();
         let zero = img.map(|_| 0.0);
-        let out = update((&img, &zero), &weights(&d, &mask, 12.0, (0.01, 400.0)), (&mask, &mask), &patches, &offsets, 12.0);
+        let borrowing = Borrowing::new(&d, &zero, (&mask, &mask), (&patches, &offsets), 12.0);
+        let out = update((&img, &zero), &borrowing.weights(&mask, (0.01, 400.0)), (&mask, &mask), &borrowing);
         let band = |im: &Image, x0: usize| {
             let smooth = gaussian_blur(im, 3.0);
             (8..56)
