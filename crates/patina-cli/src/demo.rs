@@ -114,7 +114,7 @@ fn stbrdf_demo(dir: &Path, seed: u64) -> Result<()> {
     let (steps, times) = procedural::drying_wood(64, 64, 11, seed);
     let fitted = fit::fit(&steps, &times, 3, procedural::drying_wood_params())?;
     fitted.material.save(&dir.join("material"))?;
-    let big = enlarge::enlarge(&fitted.material, (128, 128), None, None, &OptimizeParams::default(), seed, None)?;
+    let big = enlarge::enlarge(&fitted.material, (128, 128), &enlarge::EnlargeParams::default(), None, seed, None)?;
     let big_dir = dir.join("enlarged");
     big.save(&big_dir)?;
     let renders = dir.join("renders");

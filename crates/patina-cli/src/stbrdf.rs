@@ -7,7 +7,7 @@ use crate::synth::GuideArgs;
 use patina::image::io::{self, save_gif, save_png, BitDepth};
 use patina::image::sequence::{load_sequence, natural_cmp, MAX_FRAMES};
 use patina::image::Image;
-use patina::stbrdf::{enlarge, fit, render, shader, transfer, Material, Param};
+use patina::stbrdf::{enlarge, fit, render, shader, transfer, Encoding, Material, Param};
 use patina::synth::OptimizeParams;
 use patina::{Error, Result};
 use serde_json::json;
@@ -55,6 +55,29 @@ pub struct FitArgs {
     /// The Specular maps are STAF-style (coupled with a Gaussian lobe of width Roughness): decouple them first (eq. 9).
     #[arg(long)]
     pub staf: bool,
+    /// How the colour maps (Diffuse, Specular) are encoded, recorded in material.json for previews and transfer.
+    /// auto: sRGB when they are 8- or 16-bit images (PNG, JPEG, GIF), linear when they are EXR.
+    #[arg(long, value_enum, default_value_t = EncodingArg::Auto)]
+    pub encoding: EncodingArg,
+}
+
+/// `--encoding`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum EncodingArg {
+    /// From the files (fit) or the material (render).
+    Auto,
+    Srgb,
+    Linear,
+}
+
+impl EncodingArg {
+    fn or(self, auto: Encoding) -> Encoding {
+        match self {
+            EncodingArg::Auto => auto,
+            EncodingArg::Srgb => Encoding::Srgb,
+            EncodingArg::Linear => Encoding::Linear,
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -78,9 +101,26 @@ pub struct EnlargeArgs {
     pub weights: Option<Vec<f32>>,
     #[command(flatten)]
     pub guide: GuideArgs,
+    /// The capture's lighting (a vignette, a light ramp), found as a smooth cubic field in the time-averaged Diffuse:
+    /// flat removes it and lights the result evenly; stretch removes it and stretches it over the result;
+    /// keep copies it with the patches (the paper); auto is flat for materials fitted to photos (sRGB) and keep for linear ones.
+    #[arg(long, value_enum, default_value_t = IlluminationArg::Auto)]
+    pub illumination: IlluminationArg,
+    /// Do not blend the seams between copied regions in the gradient domain (blending is exact on coefficients).
+    #[arg(long)]
+    pub no_seam_blend: bool,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+}
+
+/// `--illumination`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum IlluminationArg {
+    Auto,
+    Flat,
+    Stretch,
+    Keep,
 }
 
 #[derive(clap::Args)]
@@ -132,6 +172,22 @@ pub struct RenderArgs {
     /// Milliseconds per frame in sequence.gif.
     #[arg(long, default_value_t = 150)]
     pub gif_delay: u32,
+    /// The light: sun (one directional light from the upper right, plus a little ambient) or sky (a procedural sky and ground).
+    #[arg(long, value_enum, default_value_t = LightArg::Sun)]
+    pub light: LightArg,
+    /// Exposure in stops, applied to radiance before the ACES tone curve.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, -10.0, 10.0))]
+    pub exposure: f32,
+    /// How the colour maps are encoded: auto takes material.json's (sRGB for materials fitted to 8-bit images, linear otherwise).
+    #[arg(long, value_enum, default_value_t = EncodingArg::Auto)]
+    pub encoding: EncodingArg,
+}
+
+/// `--light`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum LightArg {
+    Sun,
+    Sky,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -157,7 +213,7 @@ fn param_name(stem: &str) -> String {
 /// Parameter maps per time step from a folder of subfolders, or an
 /// albedo-only material from a folder of frames. A folder holding both is
 /// ambiguous and refused, naming both.
-fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>)> {
+fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>, Encoding)> {
     let entries = std::fs::read_dir(dir).map_err(|source| Error::Read { path: dir.into(), source })?;
     let paths: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
     let mut subdirs: Vec<PathBuf> = paths.iter().filter(|p| p.is_dir()).cloned().collect();
@@ -181,11 +237,13 @@ fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>)> {
     }
     if subdirs.is_empty() {
         let seq = load_sequence(dir)?;
-        let frames = seq.frames.into_iter().map(|f| if f.channels() >= 3 { f.select_channels(0..3) } else { f }).collect::<Vec<_>>();
+        let frames = seq.frames.iter().cloned().map(|f| if f.channels() >= 3 { f.select_channels(0..3) } else { f }).collect::<Vec<_>>();
         let c = frames[0].channels();
-        return Ok((frames, vec![Param { name: "Diffuse".into(), channels: c }]));
+        let exr = seq.names.iter().any(|n| n.to_lowercase().ends_with(".exr"));
+        return Ok((frames, vec![Param { name: "Diffuse".into(), channels: c }], if exr { Encoding::Linear } else { Encoding::Srgb }));
     }
     let mut params: Vec<Param> = Vec::new();
+    let mut encoding = Encoding::Linear;
     let mut files_of_first: Vec<String> = Vec::new();
     let mut steps = Vec::new();
     for (i, sub) in subdirs.iter().enumerate() {
@@ -214,6 +272,12 @@ fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>)> {
         }
         let maps = files.iter().map(crate::input::load).collect::<Result<Vec<_>>>()?;
         if i == 0 {
+            let colour_png = files.iter().zip(&stems).any(|(f, n)| {
+                matches!(n.as_str(), "Diffuse" | "Specular") && !f.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+            });
+            if colour_png {
+                encoding = Encoding::Srgb;
+            }
             params = stems
                 .iter()
                 .zip(&maps)
@@ -228,13 +292,14 @@ fn load_steps(dir: &Path) -> Result<(Vec<Image>, Vec<Param>)> {
         let step = Image::concat_channels(&refs).map_err(|e| Error::invalid(format!("{}: {e}", sub.display())))?;
         steps.push(step);
     }
-    Ok((steps, params))
+    Ok((steps, params, encoding))
 }
 
 fn run_fit(args: FitArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
     let out = OutDir::begin(&args.out, &[&args.input], args.overwrite)?;
-    let (mut steps, params) = load_steps(&args.input)?;
+    let (mut steps, params, found) = load_steps(&args.input)?;
+    let encoding = args.encoding.or(found);
     if args.staf {
         fit::decouple_frames(&mut steps, &params)?;
     }
@@ -245,7 +310,8 @@ fn run_fit(args: FitArgs) -> Result<()> {
         Some(t) => t.clone(),
         None => (0..n).map(|i| if n > 1 { i as f32 / (n - 1) as f32 } else { 0.0 }).collect(),
     };
-    let fitted = fit::fit(&steps, &times, args.degree, params)?;
+    let mut fitted = fit::fit(&steps, &times, args.degree, params)?;
+    fitted.material.encoding = encoding;
     let mut manifest = Manifest::new("stbrdf fit", 0);
     manifest.timings_ms.insert("fit".into(), clock.lap());
     fitted.material.save(out.path())?;
@@ -257,7 +323,7 @@ fn run_fit(args: FitArgs) -> Result<()> {
         channel += p.channels;
     }
     manifest.metrics.insert("rms".into(), serde_json::Value::Object(rms));
-    manifest.params = json!({ "degree": args.degree, "times": times, "staf_decoupled": args.staf, "params": fitted.material.params.iter().map(|p| json!({"name": p.name, "channels": p.channels})).collect::<Vec<_>>() });
+    manifest.params = json!({ "degree": args.degree, "times": times, "staf_decoupled": args.staf, "encoding": encoding, "params": fitted.material.params.iter().map(|p| json!({"name": p.name, "channels": p.channels})).collect::<Vec<_>>() });
     manifest.inputs = vec![args.input.clone()];
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;
@@ -273,23 +339,24 @@ fn run_enlarge(args: EnlargeArgs) -> Result<()> {
     let (w, h) = material.size();
     let size = args.size.unwrap_or((((w as f32 * args.scale).round() as usize).max(1), ((h as f32 * args.scale).round() as usize).max(1)));
     let guides = args.guide.load()?;
-    let params = OptimizeParams::default();
+    let params = enlarge::EnlargeParams {
+        weights: args.weights.clone(),
+        illumination: match args.illumination {
+            IlluminationArg::Auto => enlarge::Illumination::Auto,
+            IlluminationArg::Flat => enlarge::Illumination::Flat,
+            IlluminationArg::Stretch => enlarge::Illumination::Stretch,
+            IlluminationArg::Keep => enlarge::Illumination::Keep,
+        },
+        blend_seams: !args.no_seam_blend,
+        optimize: OptimizeParams::default(),
+    };
     let enlarged = with_bar("enlarge", |report| {
-        enlarge::enlarge(
-            &material,
-            size,
-            args.weights.as_deref(),
-            guides.as_ref().map(|(s, t)| (s, t, args.guide.guide_weight)),
-            &params,
-            args.seed,
-            Some(report),
-        )
+        enlarge::enlarge(&material, size, &params, guides.as_ref().map(|(s, t)| (s, t, args.guide.guide_weight)), args.seed, Some(report))
     })?;
     let mut manifest = Manifest::new("stbrdf enlarge", args.seed);
     manifest.timings_ms.insert("enlarge".into(), clock.lap());
     enlarged.save(out.path())?;
-    manifest.params =
-        json!({ "size": [size.0, size.1], "weights": args.weights, "guide_weight": args.guide.guide_weight, "optimize": params });
+    manifest.params = json!({ "size": [size.0, size.1], "guide_weight": args.guide.guide_weight, "enlarge": params });
     manifest.inputs = std::iter::once(args.material.as_path()).chain(args.guide.paths()).map(Path::to_path_buf).collect();
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;
@@ -301,7 +368,15 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
     let out = OutDir::begin(&args.out, &[&args.material, &args.target], args.overwrite)?;
     let material = Material::load(&args.material)?;
-    let target = crate::input::load(&args.target)?;
+    let mut target = crate::input::load(&args.target)?;
+    // The target's values join the material's: an image file is sRGB-encoded
+    // unless it is an EXR.
+    let target_is_exr = args.target.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if material.encoding == Encoding::Linear && !target_is_exr {
+        target = patina::image::color::to_linear(&target);
+    } else if material.encoding == Encoding::Srgb && target_is_exr {
+        target = patina::image::color::to_srgb(&target.map(|v| v.clamp(0.0, 1.0)));
+    }
     let mode = if args.mode == "offset" { transfer::Mode::Offset } else { transfer::Mode::Ratio };
     let params = transfer::TransferParams { t0: args.t0, guide_weight: args.guide_weight, mode, ..Default::default() };
     let moved = with_bar("transfer", |report| transfer::transfer(&material, &target, &params, args.seed, Some(report)))?;
@@ -320,7 +395,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
     let out = OutDir::begin(&args.out, &[&args.material], args.overwrite)?;
     let dir = out.path();
-    let material = Material::load(&args.material)?;
+    let mut material = Material::load(&args.material)?;
+    material.encoding = args.encoding.or(material.encoding);
     let times: Vec<f32> = match &args.times {
         Some(t) if t.is_empty() || t.len() > 1000 => return Err(Error::invalid("--times must list 1 to 1000 times")),
         Some(t) => t.clone(),
@@ -328,7 +404,14 @@ fn run_render(args: RenderArgs) -> Result<()> {
     };
     crate::output::mkdir(&dir.join("frames"))?;
     let mut manifest = Manifest::new("stbrdf render", 0);
-    let lighting = render::Lighting::default();
+    let lighting = render::Lighting {
+        environment: match args.light {
+            LightArg::Sun => render::Environment::Sun,
+            LightArg::Sky => render::Environment::Sky,
+        },
+        exposure: args.exposure.exp2(),
+        ..render::Lighting::default()
+    };
     let mut previews = Vec::new();
     for (i, &t) in times.iter().enumerate() {
         let frame = material.evaluate(t);
@@ -339,7 +422,12 @@ fn run_render(args: RenderArgs) -> Result<()> {
                 other => other.to_lowercase(),
             };
             let rel = PathBuf::from("frames").join(format!("{i:03}_{name}.png"));
-            save_png(&frame.select_channels(r), dir.join(&rel), BitDepth::Eight)?;
+            let mut map = frame.select_channels(r);
+            // Colour maps are shown sRGB-encoded, as an image viewer expects.
+            if material.encoding == Encoding::Linear && matches!(p.name.as_str(), "Diffuse" | "Specular") {
+                map = patina::image::color::to_srgb(&map.map(|v| v.clamp(0.0, 1.0)));
+            }
+            save_png(&map, dir.join(&rel), BitDepth::Eight)?;
             manifest.outputs.push(rel);
         }
         let plane = render::plane(&material, t, &lighting);
@@ -362,8 +450,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     })?;
     manifest.outputs.extend(["sequence.gif".into(), "material.wgsl".into(), "material.glsl".into()]);
     manifest.timings_ms.insert("render".into(), clock.lap());
-    manifest.params =
-        json!({ "times": times, "sphere": args.sphere, "light": lighting.light, "view": lighting.view, "ambient": lighting.ambient });
+    manifest.params = json!({ "times": times, "sphere": args.sphere, "lighting": lighting, "exposure_stops": args.exposure, "encoding": material.encoding, "tone_map": "aces" });
     manifest.inputs = vec![args.material.clone()];
     manifest.write(&dir.join("manifest.json"))?;
     out.commit()?;

@@ -55,7 +55,7 @@ fn main() {
     let (small, small_times) = drying_wood(128, 128, 11, 3);
     let wood = fit(&small, &small_times, 3, drying_wood_params()).expect("fit").material;
     let t = Instant::now();
-    let big = enlarge(&wood, (512, 512), None, None, &Default::default(), 1, None).expect("enlarge");
+    let big = enlarge(&wood, (512, 512), &Default::default(), None, 1, None).expect("enlarge");
     println!(
         "| enlarge 128x128 -> 512x512, d = 3 (28 channels) | {:.0} ms | {}x{} |",
         t.elapsed().as_secs_f64() * 1000.0,

@@ -41,10 +41,15 @@ pub fn fractal_noise(seed: u64, x: f32, y: f32, scale: f32, octaves: usize) -> f
 pub fn lit(img: &Image) -> Image {
     let (w, h) = img.size();
     Image::from_fn(w, h, img.channels(), |x, y, p| {
-        let (u, v) = (x as f32 / w as f32 - 0.5, y as f32 / h as f32 - 0.5);
-        let g = (1.0 - 0.9 * (u * u + v * v)) * (0.55 + 0.45 * x as f32 / w as f32);
+        let g = light_gain(x, y, w, h);
         p.iter_mut().zip(img.pixel(x, y)).for_each(|(o, c)| *o = c * g);
     })
+}
+
+/// The gain [`lit`] applies at pixel (x, y) of a `w` x `h` image.
+pub fn light_gain(x: usize, y: usize, w: usize, h: usize) -> f32 {
+    let (u, v) = (x as f32 / w as f32 - 0.5, y as f32 / h as f32 - 0.5);
+    (1.0 - 0.9 * (u * u + v * v)) * (0.55 + 0.45 * x as f32 / w as f32)
 }
 
 /// Running-bond brick wall: bricks of 30 x 12 px with 3 px mortar, a colour

@@ -29,11 +29,25 @@ pub struct Param {
     pub channels: usize,
 }
 
+/// How a material's colour parameters (Diffuse, Specular) are encoded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Encoding {
+    /// sRGB-encoded values: materials fitted to 8-bit photos and captures.
+    Srgb,
+    /// Linear values: EXR materials and physically based authoring tools.
+    #[default]
+    Linear,
+}
+
 /// The description written to `material.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 struct Descriptor {
     degree: usize,
     params: Vec<Param>,
+    /// Absent in files written before it existed: linear.
+    #[serde(default)]
+    encoding: Encoding,
 }
 
 /// A material whose every channel is a polynomial in time.
@@ -41,6 +55,9 @@ struct Descriptor {
 pub struct Material {
     pub degree: usize,
     pub params: Vec<Param>,
+    /// The colour parameters' encoding (previews decode them; transfer
+    /// matches a target to it). [`Material::new`] makes it linear.
+    pub encoding: Encoding,
     /// (sum of parameter channels) x (degree + 1) channels: parameter
     /// channel c's coefficient k is channel c (degree + 1) + k.
     pub coefficients: Image,
@@ -98,7 +115,7 @@ impl Material {
         }
         let mut coefficients = coefficients;
         coefficients.set_groups(groups(&params, degree + 1))?;
-        Ok(Material { degree, params, coefficients })
+        Ok(Material { degree, params, encoding: Encoding::Linear, coefficients })
     }
 
     /// Parameter channels (the channel count of an evaluated frame).
@@ -149,7 +166,7 @@ impl Material {
             }
             start += p.channels;
         }
-        let desc = Descriptor { degree: self.degree, params: self.params.clone() };
+        let desc = Descriptor { degree: self.degree, params: self.params.clone(), encoding: self.encoding };
         crate::image::io::write_atomic(&dir.join("material.json"), |buf| {
             serde_json::to_writer_pretty(&mut *buf, &desc).map_err(|e| Error::Internal(format!("material.json: {e}")))?;
             buf.push(b'\n');
@@ -163,16 +180,16 @@ impl Material {
             return Err(Error::invalid(format!("{} is not a material folder", dir.display())));
         }
         let json = dir.join("material.json");
-        let (degree, declared) = if json.is_file() {
+        let (degree, declared, encoding) = if json.is_file() {
             let text = std::fs::read_to_string(&json).map_err(|source| Error::Read { path: json.clone(), source })?;
             let d: Descriptor = serde_json::from_str(&text).map_err(|e| Error::Decode { path: json.clone(), reason: e.to_string() })?;
-            (d.degree, Some(d.params))
+            (d.degree, Some(d.params), d.encoding)
         } else {
             let degree = (1..=MAX_DEGREE)
                 .rev()
                 .find(|k| dir.join(format!("Diffuse-{k}.exr")).is_file())
                 .ok_or_else(|| Error::invalid(format!("{} has neither material.json nor Diffuse-1.exr", dir.display())))?;
-            (degree, None)
+            (degree, None, Encoding::Linear)
         };
         if !(1..=MAX_DEGREE).contains(&degree) {
             return Err(Error::invalid(format!("{}: degree {degree} is outside 1..={MAX_DEGREE}", json.display())));
@@ -232,7 +249,9 @@ impl Material {
                 c0 += p.channels;
             }
         });
-        Material::new(degree, params, coefficients)
+        let mut material = Material::new(degree, params, coefficients)?;
+        material.encoding = encoding;
+        Ok(material)
     }
 }
 

@@ -24,4 +24,4 @@ pub mod render;
 pub mod shader;
 pub mod transfer;
 
-pub use material::{Material, Param};
+pub use material::{Encoding, Material, Param};

@@ -48,6 +48,22 @@ pub fn drying_wood(width: usize, height: usize, steps: usize, seed: u64) -> (Vec
     (times.iter().map(|&t| drying_wood_at(width, height, t, seed)).collect(), times)
 }
 
+/// `material` as a capture under uneven light ([`crate::samples::light_gain`]:
+/// a vignette times a left-to-right ramp): every coefficient of its
+/// Diffuse parameter multiplied by the gain, so the albedo is lit at every
+/// t. The ground truth for lighting-aware enlargement.
+pub fn light_ramp(material: &mut super::Material) {
+    let Some(kd) = material.param("diffuse") else { return };
+    let m = material.degree + 1;
+    let (w, h) = material.size();
+    for y in 0..h {
+        for x in 0..w {
+            let g = crate::samples::light_gain(x, y, w, h);
+            material.coefficients.pixel_mut(x, y)[kd.start * m..kd.end * m].iter_mut().for_each(|v| *v *= g);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

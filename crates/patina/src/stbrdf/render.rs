@@ -1,32 +1,63 @@
 //! Shaded previews of a material at time t (Meister et al., eqs. 6-7):
 //! Lambert diffuse plus a GGX microfacet specular lobe with Smith
-//! shadowing-masking and Schlick's Fresnel, under one directional light and
-//! a fixed view, on a flat plane (one texel per pixel) and on a sphere
-//! (the material wrapped by longitude and latitude, sampled bilinearly).
+//! shadowing-masking and Schlick's Fresnel, on a flat plane (one texel per
+//! pixel) and on a sphere (the material wrapped by longitude and latitude).
 //!
-//! Conventions: parameters are linear; alpha = roughness^2; Ks is the
-//! Fresnel reflectance at normal incidence (F0); a `Normal` parameter is a
-//! tangent-space map (n = 2 rgb - 1). The light has radiance pi, so a white
-//! Lambert surface facing it shows 1. Output is sRGB-encoded for viewing.
+//! A linear workflow, as a renderer would do it:
+//! - the colour parameters (Diffuse, Specular) are decoded from the
+//!   material's [`Encoding`] (sRGB for materials fitted to 8-bit photos,
+//!   whose values are sRGB-encoded; linear for EXR materials);
+//! - shading is in linear light, under one directional light ([`Environment::Sun`])
+//!   or a procedural sky ([`Environment::Sky`]);
+//! - radiance is scaled by the exposure, tone-mapped with the ACES filmic
+//!   curve (Narkowicz's fit) and encoded as sRGB.
+//!
+//! The sphere is supersampled (3 x 3 per pixel, which also smooths its
+//! outline) and each sample reads a mip-mapped frame at the level its
+//! footprint asks for (trilinear), so texels are filtered, not skipped,
+//! where the sphere minifies them towards the limb.
+//!
+//! Conventions: alpha = roughness^2; Ks is the Fresnel reflectance at
+//! normal incidence (F0); a `Normal` parameter is a tangent-space map
+//! (n = 2 rgb - 1). The sun has radiance pi, so a white Lambert surface
+//! facing it reflects 1.
 
-use super::material::Material;
-use crate::image::color::linear_to_srgb;
+use super::material::{Encoding, Material};
+use crate::image::color::{linear_to_srgb, srgb_to_linear};
+use crate::image::resample::pyr_down;
 use crate::image::Image;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use std::f32::consts::PI;
 use std::ops::Range;
 
+/// What lights the preview.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Environment {
+    /// One directional light plus a small ambient term.
+    #[default]
+    Sun,
+    /// A procedural sky: a bluish zenith fading to a bright horizon over a
+    /// dark ground (a hemisphere light), no sun.
+    Sky,
+}
+
 /// Light and view directions (towards the light / the viewer, unit length
-/// after normalisation) and the ambient share.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// after normalisation), the ambient share, the environment and the
+/// exposure (a factor on radiance before tone-mapping).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Lighting {
     pub light: [f32; 3],
     pub view: [f32; 3],
     pub ambient: f32,
+    pub environment: Environment,
+    pub exposure: f32,
 }
 
 impl Default for Lighting {
     fn default() -> Self {
-        Lighting { light: [0.45, -0.55, 0.70], view: [0.0, 0.0, 1.0], ambient: 0.08 }
+        Lighting { light: [0.45, 0.55, 0.70], view: [0.0, 0.0, 1.0], ambient: 0.08, environment: Environment::Sun, exposure: 1.0 }
     }
 }
 
@@ -39,12 +70,68 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// Outgoing radiance (linear RGB) of one texel: eq. (6) with the GGX lobe
-/// of eq. (7).
+/// The sky's radiance at the zenith, at the horizon and from the ground
+/// (linear RGB). Its irradiance on a surface facing the horizon is about pi
+/// times the mean of sky and ground, so a white wall under it reflects
+/// about 0.8.
+const SKY_ZENITH: [f32; 3] = [0.55, 0.75, 1.1];
+const SKY_HORIZON: [f32; 3] = [1.25, 1.2, 1.15];
+const SKY_GROUND: [f32; 3] = [0.3, 0.27, 0.24];
+/// Screen up, the sky's zenith.
+const UP: [f32; 3] = [0.0, 1.0, 0.0];
+
+/// The sky's radiance in direction `d`: the ground below, fading into the
+/// horizon over a few degrees (a hard horizon drew a line across glossy
+/// spheres), then towards the zenith.
+fn sky_radiance(d: [f32; 3]) -> [f32; 3] {
+    let u = dot(d, UP);
+    let ground = ((0.08 - u) / 0.16).clamp(0.0, 1.0);
+    let ground = ground * ground * (3.0 - 2.0 * ground);
+    let up = u.max(0.0).sqrt();
+    std::array::from_fn(|c| {
+        let sky = SKY_HORIZON[c] + (SKY_ZENITH[c] - SKY_HORIZON[c]) * up;
+        sky + (SKY_GROUND[c] - sky) * ground
+    })
+}
+
+/// Irradiance over pi from the sky on a surface with normal `n`: the
+/// hemisphere-light approximation, mixing sky and ground by the share of
+/// each the surface sees ((1 + cos) / 2), with the sky's mean over its
+/// upper half.
+fn sky_irradiance(n: [f32; 3]) -> [f32; 3] {
+    let see_sky = 0.5 * (1.0 + dot(n, UP));
+    std::array::from_fn(|c| {
+        let sky = SKY_HORIZON[c] + (SKY_ZENITH[c] - SKY_HORIZON[c]) * (2.0 / 3.0);
+        see_sky * sky + (1.0 - see_sky) * SKY_GROUND[c]
+    })
+}
+
+/// Outgoing radiance (linear RGB) of one texel with linear parameters:
+/// eq. (6) with the GGX lobe of eq. (7) under the sun; under the sky,
+/// Lambert times the hemisphere irradiance plus the sky seen in the mirror
+/// direction (blurred towards the irradiance as roughness grows) times
+/// Karis's analytic fit of the split-sum environment BRDF.
 pub fn shade(kd: [f32; 3], ks: [f32; 3], roughness: f32, n: [f32; 3], lighting: &Lighting) -> [f32; 3] {
-    let (l, v) = (normalize(lighting.light), normalize(lighting.view));
+    let v = normalize(lighting.view);
+    let nv = dot(n, v).max(1e-4);
+    if lighting.environment == Environment::Sky {
+        let r = normalize(std::array::from_fn(|c| 2.0 * nv * n[c] - v[c]));
+        let (e, mirror) = (sky_irradiance(n), sky_radiance(r));
+        // Karis, "Physically based shading on mobile" (2014).
+        let c0 = [-1.0, -0.0275, -0.572, 0.022];
+        let c1 = [1.0, 0.0425, 1.04, -0.04];
+        let rough: [f32; 4] = std::array::from_fn(|i| roughness * c0[i] + c1[i]);
+        let a004 = (rough[0] * rough[0]).min((-9.28 * nv).exp2()) * rough[0] + rough[1];
+        let (scale, bias) = (a004 * -1.04 + rough[2], a004 * 1.04 + rough[3]);
+        let blur = roughness.clamp(0.0, 1.0);
+        return std::array::from_fn(|c| {
+            let spec = (1.0 - blur) * mirror[c] + blur * e[c];
+            kd[c] * e[c] + (ks[c] * scale + bias) * spec
+        });
+    }
+    let l = normalize(lighting.light);
     let h = normalize([l[0] + v[0], l[1] + v[1], l[2] + v[2]]);
-    let (nl, nv, nh, vh) = (dot(n, l), dot(n, v).max(1e-4), dot(n, h).max(0.0), dot(v, h).max(0.0));
+    let (nl, nh, vh) = (dot(n, l), dot(n, h).max(0.0), dot(v, h).max(0.0));
     let mut out = [0.0f32; 3];
     for c in 0..3 {
         out[c] = lighting.ambient * kd[c];
@@ -66,17 +153,73 @@ pub fn shade(kd: [f32; 3], ks: [f32; 3], roughness: f32, n: [f32; 3], lighting: 
     out
 }
 
-/// Bilinear lookup of an evaluated frame at continuous texel coordinates
-/// (texel centres at +0.5; wraps horizontally, clamps vertically).
-fn bilinear(frame: &Image, fx: f32, fy: f32, out: &mut [f32]) {
-    let (w, h) = frame.size();
-    let (x, y) = (fx - 0.5, (fy - 0.5).clamp(0.0, (h - 1) as f32));
+/// The ACES filmic curve (Narkowicz 2015's fit), mapping linear radiance
+/// to [0, 1].
+pub fn aces(x: f32) -> f32 {
+    let x = x.max(0.0);
+    ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
+}
+
+/// Linear radiance to a displayed sRGB value: exposure, ACES, sRGB.
+fn display(radiance: [f32; 3], exposure: f32, px: &mut [f32]) {
+    for (o, v) in px.iter_mut().zip(radiance) {
+        *o = linear_to_srgb(aces(exposure * v));
+    }
+}
+
+/// The material at time t with its colour parameters decoded to linear,
+/// as mip levels (finest first) for filtered lookups.
+struct ShadingFrame {
+    mips: Vec<Image>,
+}
+
+impl ShadingFrame {
+    fn new(material: &Material, t: f32, layout: &Layout, levels: usize) -> Self {
+        let mut frame = material.evaluate(t);
+        if material.encoding == Encoding::Srgb {
+            let n = frame.channels();
+            let colour: Vec<usize> = layout.kd.iter().chain(layout.ks.iter()).flat_map(|r| r.clone()).collect();
+            frame.data_mut().par_chunks_mut(n).for_each(|px| {
+                for &c in &colour {
+                    px[c] = srgb_to_linear(px[c].clamp(0.0, 1.0));
+                }
+            });
+        }
+        let mut mips = vec![frame];
+        while mips.len() < levels && mips.last().is_some_and(|m| m.width().min(m.height()) > 1) {
+            let next = pyr_down(mips.last().expect("non-empty"));
+            mips.push(next);
+        }
+        ShadingFrame { mips }
+    }
+
+    /// Trilinear lookup at texel coordinates of the finest level (texel
+    /// centres at +0.5; wraps horizontally, clamps vertically), at mip
+    /// level `lod` (0 = finest).
+    fn sample(&self, fx: f32, fy: f32, lod: f32, out: &mut [f32], tmp: &mut [f32]) {
+        let top = (self.mips.len() - 1) as f32;
+        let lod = lod.clamp(0.0, top);
+        let l0 = lod.floor() as usize;
+        let a = lod - l0 as f32;
+        bilinear(&self.mips[l0], fx, fy, self.mips[0].size(), out);
+        if a > 0.0 && l0 + 1 < self.mips.len() {
+            bilinear(&self.mips[l0 + 1], fx, fy, self.mips[0].size(), tmp);
+            out.iter_mut().zip(tmp.iter()).for_each(|(o, v)| *o += a * (v - *o));
+        }
+    }
+}
+
+/// Bilinear lookup in `level` at finest-level texel coordinates (`finest`
+/// is the finest level's size).
+fn bilinear(level: &Image, fx: f32, fy: f32, finest: (usize, usize), out: &mut [f32]) {
+    let (w, h) = level.size();
+    let (x, y) = (fx * w as f32 / finest.0 as f32 - 0.5, (fy * h as f32 / finest.1 as f32 - 0.5).clamp(0.0, (h - 1) as f32));
     let (x0, y0) = (x.floor(), y.floor());
     let (ax, ay) = (x - x0, y - y0);
     let wrap = |v: f32| (v as isize).rem_euclid(w as isize) as usize;
     let (xa, xb) = (wrap(x0), wrap(x0 + 1.0));
     let (ya, yb) = (y0 as usize, (y0 as usize + 1).min(h - 1));
-    let (p00, p10, p01, p11) = (frame.pixel(xa, ya), frame.pixel(xb, ya), frame.pixel(xa, yb), frame.pixel(xb, yb));
+    let (p00, p10, p01, p11) = (level.pixel(xa, ya), level.pixel(xb, ya), level.pixel(xa, yb), level.pixel(xb, yb));
     for (c, o) in out.iter_mut().enumerate() {
         *o = (1.0 - ay) * ((1.0 - ax) * p00[c] + ax * p10[c]) + ay * ((1.0 - ax) * p01[c] + ax * p11[c]);
     }
@@ -116,76 +259,169 @@ impl Layout {
     }
 }
 
-/// The material at time t on a flat plane, one texel per pixel (sRGB).
+/// The material at time t on a flat plane facing the viewer, one texel per
+/// pixel (sRGB).
 pub fn plane(material: &Material, t: f32, lighting: &Lighting) -> Image {
-    let frame = material.evaluate(t);
-    let (w, h) = material.size();
     let layout = Layout::of(material);
+    let frame = ShadingFrame::new(material, t, &layout, 1);
+    let (w, h) = material.size();
     Image::from_fn(w, h, 3, |x, y, px| {
-        let (kd, ks, r, n) = layout.texel(frame.pixel(x, y));
-        let c = shade(kd, ks, r, n, lighting);
-        for (o, v) in px.iter_mut().zip(c) {
-            *o = linear_to_srgb(v.clamp(0.0, 1.0));
-        }
+        let (kd, ks, r, n) = layout.texel(frame.mips[0].pixel(x, y));
+        display(shade(kd, ks, r, n, lighting), lighting.exposure, px);
     })
 }
 
+/// Supersamples per pixel side on the sphere.
+const SPHERE_SS: usize = 3;
+/// The backdrop's grey (sRGB).
+const BACKDROP: f32 = 0.12;
+
+/// Texel coordinates of the sphere point at normalised screen position
+/// (u, v) (the material wrapped by longitude across the front half and by
+/// latitude), and its geometric normal; `None` off the sphere.
+fn sphere_point(u: f32, v: f32, (w, h): (usize, usize)) -> Option<([f32; 2], [f32; 3])> {
+    let z2 = 1.0 - u * u - v * v;
+    if z2 <= 0.0 {
+        return None;
+    }
+    let n = [u, v, z2.sqrt()];
+    let (lon, lat) = (n[0].atan2(n[2]), n[1].clamp(-1.0, 1.0).asin());
+    Some(([(lon / PI + 0.5) * w as f32, (0.5 - lat / PI) * h as f32], n))
+}
+
 /// The material at time t wrapped on a sphere seen from the front, in a
-/// `size` x `size` image on dark grey (sRGB).
+/// `size` x `size` image on dark grey (sRGB), supersampled and mip-mapped.
 pub fn sphere(material: &Material, t: f32, size: usize, lighting: &Lighting) -> Image {
-    let frame = material.evaluate(t);
-    let (w, h) = material.size();
+    sphere_sampled(material, t, size, lighting, SPHERE_SS, true)
+}
+
+/// [`sphere`] with `ss` x `ss` samples per pixel, mip-mapped or not.
+fn sphere_sampled(material: &Material, t: f32, size: usize, lighting: &Lighting, ss: usize, mipmap: bool) -> Image {
     let layout = Layout::of(material);
-    let mut value = vec![0.0f32; frame.channels()];
-    Image::from_fn(size, size, 3, |x, y, px| {
-        let r = size as f32 / 2.0;
-        let (u, v) = ((x as f32 + 0.5 - r) / r, (r - y as f32 - 0.5) / r);
-        let z2 = 1.0 - u * u - v * v;
-        if z2 <= 0.0 {
-            px.iter_mut().for_each(|o| *o = 0.12);
-            return;
+    let frame = ShadingFrame::new(material, t, &layout, if mipmap { 16 } else { 1 });
+    let dims = material.size();
+    let channels = frame.mips[0].channels();
+    let r = size as f32 / 2.0;
+    let step = 1.0 / (ss as f32 * r);
+    let mut out = Image::new(size, size, 3);
+    out.data_mut().par_chunks_mut(size * 3).enumerate().for_each(|(y, row)| {
+        let (mut value, mut tmp) = (vec![0.0f32; channels], vec![0.0f32; channels]);
+        for (x, px) in row.chunks_exact_mut(3).enumerate() {
+            let mut sum = [0.0f32; 3];
+            for sy in 0..ss {
+                for sx in 0..ss {
+                    let fx = x as f32 + (sx as f32 + 0.5) / ss as f32;
+                    let fy = y as f32 + (sy as f32 + 0.5) / ss as f32;
+                    let (u, v) = ((fx - r) / r, (r - fy) / r);
+                    let Some((tc, n_geo)) = sphere_point(u, v, dims) else {
+                        sum.iter_mut().for_each(|s| *s += BACKDROP);
+                        continue;
+                    };
+                    // The sample's footprint in texels: how far the texel
+                    // coordinates move over one sample step on screen.
+                    let reach = |du: f32, dv: f32| {
+                        sphere_point(u + du, v + dv, dims).or_else(|| sphere_point(u - du, v - dv, dims)).map_or(0.0, |(q, _)| {
+                            let dx = (q[0] - tc[0]).abs();
+                            let dx = dx.min(dims.0 as f32 - dx);
+                            (dx * dx + (q[1] - tc[1]).powi(2)).sqrt()
+                        })
+                    };
+                    let footprint = reach(step, 0.0).max(reach(0.0, step)).max(1.0);
+                    frame.sample(tc[0], tc[1], footprint.log2(), &mut value, &mut tmp);
+                    let (kd, ks, rough, n_tan) = layout.texel(&value);
+                    // Tangent frame: T along longitude, B along latitude.
+                    let tangent = normalize([n_geo[2], 0.0, -n_geo[0]]);
+                    let bitangent = [
+                        n_geo[1] * tangent[2] - n_geo[2] * tangent[1],
+                        n_geo[2] * tangent[0] - n_geo[0] * tangent[2],
+                        n_geo[0] * tangent[1] - n_geo[1] * tangent[0],
+                    ];
+                    let n = normalize(std::array::from_fn(|c| n_tan[0] * tangent[c] + n_tan[1] * bitangent[c] + n_tan[2] * n_geo[c]));
+                    let mut shown = [0.0f32; 3];
+                    display(shade(kd, ks, rough, n, lighting), lighting.exposure, &mut shown);
+                    sum.iter_mut().zip(shown).for_each(|(s, v)| *s += v);
+                }
+            }
+            let k = 1.0 / (ss * ss) as f32;
+            px.iter_mut().zip(sum).for_each(|(o, s)| *o = s * k);
         }
-        let n_geo = [u, v, z2.sqrt()];
-        // Longitude across the front half maps to the texture's width,
-        // latitude to its height.
-        let lon = n_geo[0].atan2(n_geo[2]);
-        let lat = n_geo[1].asin();
-        bilinear(&frame, (lon / PI + 0.5) * w as f32, (0.5 - lat / PI) * h as f32, &mut value);
-        let (kd, ks, rough, n_tan) = layout.texel(&value);
-        // Tangent frame: T along longitude, B along latitude.
-        let tangent = normalize([n_geo[2], 0.0, -n_geo[0]]);
-        let bitangent = [
-            n_geo[1] * tangent[2] - n_geo[2] * tangent[1],
-            n_geo[2] * tangent[0] - n_geo[0] * tangent[2],
-            n_geo[0] * tangent[1] - n_geo[1] * tangent[0],
-        ];
-        let n = normalize([
-            n_tan[0] * tangent[0] + n_tan[1] * bitangent[0] + n_tan[2] * n_geo[0],
-            n_tan[0] * tangent[1] + n_tan[1] * bitangent[1] + n_tan[2] * n_geo[1],
-            n_tan[0] * tangent[2] + n_tan[1] * bitangent[2] + n_tan[2] * n_geo[2],
-        ]);
-        let c = shade(kd, ks, rough, n, lighting);
-        for (o, v) in px.iter_mut().zip(c) {
-            *o = linear_to_srgb(v.clamp(0.0, 1.0));
-        }
-    })
+    });
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn sun(light: [f32; 3], view: [f32; 3]) -> Lighting {
+        Lighting { light, view, ambient: 0.0, ..Lighting::default() }
+    }
+
     #[test]
     fn lambert_facing_the_light_shows_its_albedo_and_the_lobe_peaks_at_the_mirror_direction() {
-        let head_on = Lighting { light: [0.0, 0.0, 1.0], view: [0.0, 0.0, 1.0], ambient: 0.0 };
-        let c = shade([0.5, 0.25, 0.1], [0.0; 3], 0.8, [0.0, 0.0, 1.0], &head_on);
+        let c = shade([0.5, 0.25, 0.1], [0.0; 3], 0.8, [0.0, 0.0, 1.0], &sun([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]));
         // With Ks = 0, Schlick's F is 0 at normal incidence: only Lambert remains.
         assert!((c[0] - 0.5).abs() < 1e-4 && (c[1] - 0.25).abs() < 1e-4, "{c:?}");
-        let glossy = |n: [f32; 3]| {
-            shade([0.0; 3], [0.04; 3], 0.2, normalize(n), &Lighting { light: [0.5, 0.0, 0.866], view: [-0.5, 0.0, 0.866], ambient: 0.0 })[0]
-        };
+        let glossy = |n: [f32; 3]| shade([0.0; 3], [0.04; 3], 0.2, normalize(n), &sun([0.5, 0.0, 0.866], [-0.5, 0.0, 0.866]))[0];
         assert!(glossy([0.0, 0.0, 1.0]) > 5.0 * glossy([0.3, 0.0, 1.0]), "the highlight is where the half vector meets the normal");
         let below = shade([1.0; 3], [0.04; 3], 0.5, [0.0, 0.0, 1.0], &Lighting { light: [0.0, 0.0, -1.0], ..Lighting::default() });
         assert!(below.iter().all(|v| (v - 0.08).abs() < 1e-6), "only ambient when the light is behind");
+    }
+
+    #[test]
+    fn the_sky_lights_surfaces_facing_up_more_than_those_facing_down() {
+        let sky = Lighting { environment: Environment::Sky, ..Lighting::default() };
+        let up = shade([0.5; 3], [0.04; 3], 0.5, [0.0, 0.8, 0.6], &sky);
+        let down = shade([0.5; 3], [0.04; 3], 0.5, [0.0, -0.8, 0.6], &sky);
+        assert!(up[1] > 1.5 * down[1], "{up:?} vs {down:?}");
+        let front = shade([1.0; 3], [0.0; 3], 1.0, [0.0, 0.0, 1.0], &sky);
+        assert!(front.iter().all(|v| (0.5..1.2).contains(v)), "a white wall is lit near 1: {front:?}");
+    }
+
+    /// An 8-bit capture (sRGB-encoded values) shown in a linear workflow
+    /// keeps its level and contrast: the old preview encoded the values a
+    /// second time, 40 levels too bright with half the contrast.
+    #[test]
+    fn an_srgb_material_previews_at_its_own_level_and_contrast() {
+        use crate::stbrdf::Param;
+        let kd = Image::from_fn(32, 32, 3, |x, _, p| p.fill(if (x / 4) % 2 == 0 { 0.25 } else { 0.7 }));
+        let mut coef = Image::new(32, 32, 6);
+        for y in 0..32 {
+            for x in 0..32 {
+                for c in 0..3 {
+                    coef.pixel_mut(x, y)[2 * c] = kd.pixel(x, y)[c];
+                }
+            }
+        }
+        let mut m = Material::new(1, vec![Param { name: "Diffuse".into(), channels: 3 }], coef).unwrap();
+        m.encoding = Encoding::Srgb;
+        let p = plane(&m, 0.5, &Lighting::default());
+        let (dark, light) = (p.at(1, 1, 0), p.at(5, 1, 0));
+        assert!((light - dark) >= 0.8 * 0.45, "contrast {} of 0.45", light - dark);
+        assert!((dark - 0.25).abs() < 0.08 && (light - 0.7).abs() < 0.08, "levels {dark} {light} against 0.25 and 0.7");
+    }
+
+    /// A checker minified on the sphere is filtered: each pixel is close to
+    /// the true average of the texels it covers (a 16 x 16 supersampled
+    /// reference), where one unfiltered sample per pixel sparkles.
+    #[test]
+    fn the_sphere_filters_minified_texels() {
+        use crate::stbrdf::Param;
+        let mut coef = Image::new(256, 256, 6);
+        for y in 0..256 {
+            for x in 0..256 {
+                let v = if (x / 2 + y / 2) % 2 == 0 { 0.9 } else { 0.1 };
+                for c in 0..3 {
+                    coef.pixel_mut(x, y)[2 * c] = v;
+                }
+            }
+        }
+        let m = Material::new(1, vec![Param { name: "Diffuse".into(), channels: 3 }], coef).unwrap();
+        let sky = Lighting { environment: Environment::Sky, ..Lighting::default() };
+        let reference = sphere_sampled(&m, 0.0, 64, &sky, 16, false);
+        let error =
+            |img: &Image| img.data().iter().zip(reference.data()).map(|(a, b)| (a - b).abs()).sum::<f32>() / img.data().len() as f32;
+        let (filtered, point) = (error(&sphere(&m, 0.0, 64, &sky)), error(&sphere_sampled(&m, 0.0, 64, &sky, 1, false)));
+        assert!(filtered < 0.03 && filtered < 0.35 * point, "mean error {filtered:.3} against the reference; one point sample: {point:.3}");
     }
 }

@@ -13,7 +13,7 @@
 //! source at t0 (bare soil under later snow) multiplied the target by 15
 //! and blew it out to white.
 
-use super::enlarge::enlarge;
+use super::enlarge::{enlarge, EnlargeParams, Illumination};
 use super::material::Material;
 use super::poly::evaluate;
 use crate::error::{Error, Result};
@@ -93,9 +93,15 @@ pub fn transfer(material: &Material, target: &Image, params: &TransferParams, se
     }
     let source_guide = equalize(&luminance(&material.evaluate(t0).select_channels(kd.clone())));
     let target_guide = equalize(&luminance(&target.select_channels(0..3)));
-    let mut coefficients =
-        enlarge(material, target.size(), None, Some((&source_guide, &target_guide, guide_weight)), &params.optimize, seed, progress)?
-            .coefficients;
+    let mut coefficients = enlarge(
+        material,
+        target.size(),
+        &EnlargeParams { illumination: Illumination::Keep, optimize: params.optimize.clone(), ..EnlargeParams::default() },
+        Some((&source_guide, &target_guide, guide_weight)),
+        seed,
+        progress,
+    )?
+    .coefficients;
     let m = material.degree + 1;
     for y in 0..target.height() {
         for x in 0..target.width() {
@@ -113,7 +119,9 @@ pub fn transfer(material: &Material, target: &Image, params: &TransferParams, se
             }
         }
     }
-    Material::new(material.degree, material.params.clone(), coefficients)
+    let mut out = Material::new(material.degree, material.params.clone(), coefficients)?;
+    out.encoding = material.encoding;
+    Ok(out)
 }
 
 #[cfg(test)]

@@ -64,11 +64,78 @@ const LOG_FLOOR: f32 = 1e-3;
 pub fn separate(img: &Image) -> Separation {
     let sigma = img.width().min(img.height()) as f32 / 8.0;
     let lum = luminance(img);
-    let mean_luminance = mean(&lum);
     let field = log_field(&lum, sigma);
+    with_field(img, &lum, field, sigma)
+}
+
+/// Degree of [`separate_smooth`]'s polynomial field.
+pub const SMOOTH_DEGREE: usize = 3;
+
+/// Split `img` into detail and an illumination field that is a cubic
+/// polynomial in x and y, fitted to its log luminance by least squares
+/// (`sigma` is reported as 0). A vignette times a ramp is such a field
+/// almost exactly, while content at any scale smaller than the image (wet
+/// patches, rust fields a fifth of the sample wide) is not: the Gaussian
+/// field of [`separate`] at 1/8 of the side took those for light when the
+/// sample held only a few of them.
+pub fn separate_smooth(img: &Image) -> Separation {
+    let lum = luminance(img);
+    let (w, h) = lum.size();
+    let log_lum: Vec<f32> = lum.data().iter().map(|v| (v.max(0.0) + LOG_FLOOR).ln()).collect();
+    let terms = |x: usize, y: usize| -> Vec<f64> {
+        let (u, v) = (2.0 * (x as f64 + 0.5) / w as f64 - 1.0, 2.0 * (y as f64 + 0.5) / h as f64 - 1.0);
+        let mut t = Vec::with_capacity(10);
+        for total in 0..=SMOOTH_DEGREE {
+            for i in 0..=total {
+                t.push(u.powi(i as i32) * v.powi((total - i) as i32));
+            }
+        }
+        t
+    };
+    let k = terms(0, 0).len();
+    // Normal equations over a grid of at most 128 x 128 samples.
+    let step = (w.max(h) / 128).max(1);
+    let mut ata = nalgebra::DMatrix::<f64>::zeros(k, k);
+    let mut atb = nalgebra::DVector::<f64>::zeros(k);
+    for y in (0..h).step_by(step) {
+        for x in (0..w).step_by(step) {
+            let t = terms(x, y);
+            let b = log_lum[y * w + x] as f64;
+            for i in 0..k {
+                atb[i] += t[i] * b;
+                for j in 0..k {
+                    ata[(i, j)] += t[i] * t[j];
+                }
+            }
+        }
+    }
+    // A tiny ridge keeps images too small for a cubic solvable.
+    for i in 0..k {
+        ata[(i, i)] += 1e-9 * (1.0 + ata[(i, i)]);
+    }
+    let coef = ata.cholesky().map(|c| c.solve(&atb)).unwrap_or_else(|| nalgebra::DVector::zeros(k));
+    let mut field = Image::from_fn(w, h, 1, |x, y, p| p[0] = terms(x, y).iter().zip(coef.iter()).map(|(a, b)| a * b).sum::<f64>() as f32);
+    let m = mean(&field);
+    field.data_mut().iter_mut().for_each(|v| *v -= m);
+    with_field(img, &lum, field, 0.0)
+}
+
+/// The separation of `img` (luminance `lum`) by a log field relative to its mean.
+fn with_field(img: &Image, lum: &Image, field: Image, sigma: f32) -> Separation {
+    let mean_luminance = mean(lum);
     let mut detail = img.clone();
-    apply_gain(&mut detail, &field.data().iter().map(|f| (-f).exp()).collect::<Vec<_>>());
-    Separation { detail, log_field: field, sigma, mean_luminance }
+    let mut sep = Separation { detail: Image::new(1, 1, 1), log_field: field, sigma, mean_luminance };
+    apply_gain(&mut detail, &sep.unlit_gain());
+    sep.detail = detail;
+    sep
+}
+
+impl Separation {
+    /// The per-pixel gain that removes the illumination (exp(-field)),
+    /// which made [`Separation::detail`].
+    pub fn unlit_gain(&self) -> Vec<f32> {
+        self.log_field.data().iter().map(|f| (-f).exp()).collect()
+    }
 }
 
 fn mean(img: &Image) -> f32 {
@@ -173,7 +240,9 @@ pub fn relight_sequence(frames: &mut [Image], sep: &Separation, how: Relight) ->
 
 /// The per-pixel gain that re-lights detail of `size` as `how` says;
 /// `detail_mean` is the detail's mean luminance (for flat re-lighting).
-fn gain(size: (usize, usize), sep: &Separation, how: Relight, detail_mean: impl FnOnce() -> f32) -> Result<Option<Vec<f32>>> {
+/// `None` for [`Relight::Keep`]. For callers whose image is not the
+/// exemplar itself (a material's coefficients, linear in the albedo).
+pub fn gain(size: (usize, usize), sep: &Separation, how: Relight, detail_mean: impl FnOnce() -> f32) -> Result<Option<Vec<f32>>> {
     let (w, h) = size;
     Ok(match how {
         Relight::Keep => None,

@@ -1,0 +1,108 @@
+//! Spatio-temporal materials on captures the tests make (issue 20): a lit
+//! rusting-steel capture enlarged without grid, lighting split or lost
+//! contrast; previews that keep the basecolor's contrast.
+
+use patina::image::color::luminance;
+use patina::image::filter::gaussian_blur;
+use patina::metrics::{grid_peak, nonstationarity};
+use patina::stbrdf::enlarge::{enlarge, time_average, EnlargeParams, Illumination};
+use patina::stbrdf::render::{self, Environment, Lighting};
+use patina::stbrdf::{fit, Encoding, Material, Param};
+use patina::{samples, Image};
+
+fn diffuse() -> Vec<Param> {
+    vec![Param { name: "Diffuse".into(), channels: 3 }]
+}
+
+/// A rusting-steel time-lapse (spots appearing and spreading) fitted as an
+/// albedo-only cubic material, unlit and under a capture's vignette and
+/// light ramp.
+fn rusting(size: usize) -> (Material, Material) {
+    let frames = samples::rusting_timelapse(size, size, 21, 5);
+    let times: Vec<f32> = (0..21).map(|i| i as f32 / 20.0).collect();
+    let lit: Vec<Image> = frames.iter().map(samples::lit).collect();
+    let mut clean = fit::fit(&frames, &times, 3, diffuse()).unwrap().material;
+    let mut captured = fit::fit(&lit, &times, 3, diffuse()).unwrap().material;
+    clean.encoding = Encoding::Srgb;
+    captured.encoding = Encoding::Srgb;
+    (clean, captured)
+}
+
+fn basecolor(m: &Material, t: f32) -> Image {
+    m.evaluate(t).select_channels(m.param("diffuse").unwrap())
+}
+
+/// Luminance std after removing the scale of a capture's light (a Gaussian
+/// of `sigma`): the contrast of the spots.
+fn spot_contrast(img: &Image, sigma: f32) -> f64 {
+    let y = luminance(img);
+    let low = gaussian_blur(&y, sigma);
+    let d: Vec<f64> = y.data().iter().zip(low.data()).map(|(a, b)| (a - b) as f64).collect();
+    let mean = d.iter().sum::<f64>() / d.len() as f64;
+    (d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / d.len() as f64).sqrt()
+}
+
+fn std(img: &Image) -> f64 {
+    let y = luminance(img);
+    let d = y.data();
+    let mean = d.iter().map(|&v| v as f64).sum::<f64>() / d.len() as f64;
+    (d.iter().map(|&v| (v as f64 - mean).powi(2)).sum::<f64>() / d.len() as f64).sqrt()
+}
+
+#[test]
+fn a_lit_capture_enlarges_without_grid_or_light_split_and_keeps_its_spots() {
+    let (clean, captured) = rusting(96);
+    let big = enlarge(&captured, (192, 192), &EnlargeParams::default(), None, 3, None).unwrap();
+    assert_eq!(big.encoding, Encoding::Srgb, "the encoding travels with the material");
+    for t in [0.0, 0.5, 1.0] {
+        let ratio = grid_peak(&basecolor(&big, t)) / grid_peak(&basecolor(&captured, t));
+        assert!(ratio <= 1.5, "t = {t}: block-grid peak {ratio:.2}x the input's");
+    }
+    // The spots keep at least 85% of their contrast at t = 1 (the capture's
+    // light scale removed from both).
+    let contrast = spot_contrast(&basecolor(&big, 1.0), 12.0) / spot_contrast(&basecolor(&captured, 1.0), 12.0);
+    assert!(contrast >= 0.85, "spot contrast at t = 1: {contrast:.2} of the input's");
+    // The light is not copied piecewise: the enlarged time-averaged albedo
+    // is as stationary as the unlit capture, far from the lit one.
+    let (out, lit, unlit) = (
+        nonstationarity(&time_average(&big, 0..3)),
+        nonstationarity(&time_average(&captured, 0..3)),
+        nonstationarity(&time_average(&clean, 0..3)),
+    );
+    assert!(out < 0.35 * lit && out < unlit + 0.03, "large-scale variation {out:.3}: lit input {lit:.3}, unlit {unlit:.3}");
+    // Copying the light (the paper's enlargement) keeps much more of it.
+    let kept =
+        enlarge(&captured, (192, 192), &EnlargeParams { illumination: Illumination::Keep, ..Default::default() }, None, 3, None).unwrap();
+    assert!(nonstationarity(&time_average(&kept, 0..3)) > 2.0 * out, "the check can tell the light was removed");
+}
+
+#[test]
+fn previews_keep_the_basecolor_contrast_under_sun_and_sky() {
+    let (clean, _) = rusting(64);
+    // The albedo at t = 1 stored linear (a constant polynomial): its
+    // preview at t = 1 must match the sRGB material's.
+    let mut linear = clean.clone();
+    let m = linear.degree + 1;
+    for px in linear.coefficients.data_mut().chunks_exact_mut(3 * m) {
+        for c in 0..3 {
+            let v = px[c * m..(c + 1) * m].iter().sum::<f32>();
+            px[c * m..(c + 1) * m].fill(0.0);
+            px[c * m] = patina::image::color::srgb_to_linear(v.clamp(0.0, 1.0));
+        }
+    }
+    linear.encoding = Encoding::Linear;
+    for environment in [Environment::Sun, Environment::Sky] {
+        let lighting = Lighting { environment, ..Lighting::default() };
+        let base = basecolor(&clean, 1.0);
+        let (p_srgb, p_linear) = (render::plane(&clean, 1.0, &lighting), render::plane(&linear, 1.0, &lighting));
+        for (name, p) in [("sRGB", &p_srgb), ("linear", &p_linear)] {
+            let ratio = std(p) / std(&base);
+            assert!(ratio >= 0.8, "{environment:?}, {name} material: preview contrast {ratio:.2} of the basecolor's");
+            let level = |img: &Image| luminance(img).data().iter().map(|&v| v as f64).sum::<f64>() / (64.0 * 64.0);
+            let shift = 255.0 * (level(p) - level(&base));
+            assert!(shift.abs() < 30.0, "{environment:?}, {name} material: preview {shift:+.0} levels off the basecolor");
+        }
+        let diff = p_srgb.data().iter().zip(p_linear.data()).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        assert!(diff < 0.02, "{environment:?}: the same albedo stored sRGB and linear previews alike (max diff {diff})");
+    }
+}
