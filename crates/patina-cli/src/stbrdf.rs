@@ -142,9 +142,16 @@ pub struct TransferArgs {
     /// Weight of the equalised-luminance guides.
     #[arg(long, default_value_t = 2.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub guide_weight: f32,
-    /// ratio: scale the change by target / material at t0 (eq. 16; wetting, dulling). offset: add the change unscaled (snow, moss, paint).
-    #[arg(long, default_value = "ratio", value_parser = ["ratio", "offset"])]
-    pub mode: String,
+    /// How the material's change lands on the target. grow: the material covers the target texel by texel as its own
+    /// change arrives, in its own spatial pattern (spots appear and spread). ratio: the change scaled by target / material
+    /// at t0 (eq. 16; wetting, dulling). offset: the change added unscaled. auto: ratio for changes small against the
+    /// material at t0, offset for large ones.
+    #[arg(long, value_enum, default_value_t = ModeArg::Grow)]
+    pub mode: ModeArg,
+    /// Only the object changes: a mask image of the target's size (white = changes, black = stays exactly the target;
+    /// grey blends). Its alpha channel is used if it has one, else its luminance.
+    #[arg(long)]
+    pub mask: Option<PathBuf>,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -181,6 +188,15 @@ pub struct RenderArgs {
     /// How the colour maps are encoded: auto takes material.json's (sRGB for materials fitted to 8-bit images, linear otherwise).
     #[arg(long, value_enum, default_value_t = EncodingArg::Auto)]
     pub encoding: EncodingArg,
+}
+
+/// `--mode` of transfer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModeArg {
+    Grow,
+    Ratio,
+    Offset,
+    Auto,
 }
 
 /// `--light`.
@@ -366,7 +382,9 @@ fn run_enlarge(args: EnlargeArgs) -> Result<()> {
 
 fn run_transfer(args: TransferArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
-    let out = OutDir::begin(&args.out, &[&args.material, &args.target], args.overwrite)?;
+    let inputs: Vec<&Path> =
+        [Some(args.material.as_path()), Some(args.target.as_path()), args.mask.as_deref()].into_iter().flatten().collect();
+    let out = OutDir::begin(&args.out, &inputs, args.overwrite)?;
     let material = Material::load(&args.material)?;
     let mut target = crate::input::load(&args.target)?;
     // The target's values join the material's: an image file is sRGB-encoded
@@ -377,14 +395,42 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
     } else if material.encoding == Encoding::Srgb && target_is_exr {
         target = patina::image::color::to_srgb(&target.map(|v| v.clamp(0.0, 1.0)));
     }
-    let mode = if args.mode == "offset" { transfer::Mode::Offset } else { transfer::Mode::Ratio };
+    let mask = match &args.mask {
+        Some(path) => {
+            let img = crate::input::load(path)?;
+            let m = match img.group("alpha") {
+                Some(a) => img.select_channels(a),
+                None => patina::image::color::luminance(&img),
+            };
+            if m.size() != target.size() {
+                return Err(Error::invalid(format!(
+                    "the mask {} is {}x{} but the target is {}x{}",
+                    path.display(),
+                    m.width(),
+                    m.height(),
+                    target.width(),
+                    target.height()
+                )));
+            }
+            Some(m)
+        }
+        None => None,
+    };
+    let mode = match args.mode {
+        ModeArg::Grow => transfer::Mode::Grow,
+        ModeArg::Ratio => transfer::Mode::Ratio,
+        ModeArg::Offset => transfer::Mode::Offset,
+        ModeArg::Auto => transfer::Mode::Auto,
+    };
     let params = transfer::TransferParams { t0: args.t0, guide_weight: args.guide_weight, mode, ..Default::default() };
-    let moved = with_bar("transfer", |report| transfer::transfer(&material, &target, &params, args.seed, Some(report)))?;
+    let moved = with_bar("transfer", |report| transfer::transfer(&material, &target, mask.as_ref(), &params, args.seed, Some(report)))?;
     let mut manifest = Manifest::new("stbrdf transfer", args.seed);
     manifest.timings_ms.insert("transfer".into(), clock.lap());
-    moved.save(out.path())?;
+    moved.material.save(out.path())?;
     manifest.params = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
-    manifest.inputs = vec![args.material.clone(), args.target.clone()];
+    manifest.params["mode_used"] = json!(moved.mode);
+    manifest.params["masked"] = json!(mask.is_some());
+    manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;
     eprintln!("patina stbrdf transfer: wrote {}", args.out.display());

@@ -106,3 +106,51 @@ fn previews_keep_the_basecolor_contrast_under_sun_and_sky() {
         assert!(diff < 0.02, "{environment:?}: the same albedo stored sRGB and linear previews alike (max diff {diff})");
     }
 }
+
+/// Grow-mode transfer of rusting steel onto a texture inside a mask: the
+/// pixels outside never change (bit-identical at every t), and the
+/// changed area inside grows over t as spots, not as a tint over all of it.
+#[test]
+fn masked_transfer_leaves_the_outside_alone_and_grows_spots_inside() {
+    use patina::stbrdf::transfer::{transfer, Mode, TransferParams};
+    let (clean, _) = rusting(64);
+    let (w, h) = (96, 80);
+    let target = samples::cobbles(w, h, 3);
+    let mask = Image::from_fn(w, h, 1, |x, y, p| {
+        let r = ((x as f32 - 48.0).powi(2) + (y as f32 - 40.0).powi(2)).sqrt();
+        p[0] = (30.0 - r).clamp(0.0, 1.0);
+    });
+    for mode in [Mode::Grow, Mode::Ratio, Mode::Offset] {
+        let params = TransferParams { mode, ..TransferParams::default() };
+        let out = transfer(&clean, &target, Some(&mask), &params, 4, None).unwrap().material;
+        let mut areas = Vec::new();
+        for k in 0..=10 {
+            let t = k as f32 / 10.0;
+            let frame = basecolor(&out, t);
+            let (mut changed, mut inside) = (0usize, 0usize);
+            for y in 0..h {
+                for x in 0..w {
+                    let (a, b) = (frame.pixel(x, y), &target.pixel(x, y)[..3]);
+                    if mask.at(x, y, 0) == 0.0 {
+                        assert!(
+                            a.iter().zip(b).all(|(p, q)| p.to_bits() == q.to_bits()),
+                            "{mode:?} t = {t}: ({x}, {y}) outside the mask changed"
+                        );
+                    } else if mask.at(x, y, 0) >= 1.0 {
+                        inside += 1;
+                        if a.iter().zip(b).map(|(p, q)| (p - q).abs()).fold(0.0f32, f32::max) > 0.06 {
+                            changed += 1;
+                        }
+                    }
+                }
+            }
+            areas.push(changed as f32 / inside as f32);
+        }
+        assert!(areas[0] == 0.0, "{mode:?}: at t0 the result is the target");
+        assert!(areas[10] > 0.1 && areas[10] > areas[3] + 0.05, "{mode:?}: the changed share grows over t: {areas:?}");
+        if mode == Mode::Grow {
+            assert!(areas[10] < 0.85, "grow: spots cover part of the object, not all of it: {areas:?}");
+            assert!(areas.windows(2).all(|p| p[1] >= p[0] - 0.02), "grow: the covered area does not shrink: {areas:?}");
+        }
+    }
+}

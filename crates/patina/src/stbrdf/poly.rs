@@ -61,6 +61,31 @@ impl Fitter {
         Ok(Fitter { degree, pinv, samples: n })
     }
 
+    /// A fitter whose polynomials vanish at `t0`: least squares in the
+    /// basis (t - t0)^j, j = 1..=d, expanded to monomials (binomially), so
+    /// that samples of q(t) = v(t) - v(t0) give q(t0) = 0 up to rounding,
+    /// and all-zero samples give all-zero coefficients exactly.
+    pub fn anchored(times: &[f32], degree: usize, t0: f32) -> Result<Self> {
+        Self::new(times, degree)?;
+        let n = times.len();
+        let t0 = f64::from(t0);
+        let v = DMatrix::<f64>::from_fn(n, degree, |i, j| (f64::from(times[i]) - t0).powi(j as i32 + 1));
+        let pinv = v.pseudo_inverse(1e-12).map_err(|e| Error::Internal(format!("pseudo-inverse: {e}")))?;
+        let binomial = |j: usize, k: usize| (0..k).fold(1.0f64, |acc, i| acc * (j - i) as f64 / (i + 1) as f64);
+        // a_k = sum_j b_j C(j, k) (-t0)^(j - k), for j = 1..=d and k <= j.
+        let expand = DMatrix::<f64>::from_fn(degree + 1, degree, |k, j| {
+            let j = j + 1;
+            if k > j {
+                0.0
+            } else {
+                binomial(j, k) * (-t0).powi((j - k) as i32)
+            }
+        });
+        let m = expand * pinv;
+        let pinv: Vec<f64> = (0..degree + 1).flat_map(|k| (0..n).map(move |i| (k, i))).map(|(k, i)| m[(k, i)]).collect();
+        Ok(Fitter { degree, pinv, samples: n })
+    }
+
     pub fn degree(&self) -> usize {
         self.degree
     }
@@ -172,6 +197,23 @@ pub fn sampled_distance(a: &[f32], b: &[f32], degree: usize, samples: usize) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn anchored_fits_vanish_at_t0_and_follow_the_samples() {
+        let times: Vec<f32> = (0..16).map(|i| i as f32 / 15.0).collect();
+        let f = Fitter::anchored(&times, 3, 0.3).unwrap();
+        // A cubic that vanishes at 0.3 is fitted exactly.
+        let q = |t: f32| (t - 0.3) * (1.0 + 2.0 * t - t * t);
+        let samples: Vec<f32> = times.iter().map(|&t| q(t)).collect();
+        let mut a = [0.0f32; 4];
+        f.fit_into(&samples, &mut a);
+        assert!(evaluate(&a, 0.3).abs() < 1e-5, "{}", evaluate(&a, 0.3));
+        for &t in &times {
+            assert!((evaluate(&a, t) - q(t)).abs() < 1e-4);
+        }
+        f.fit_into(&[0.0; 16], &mut a);
+        assert_eq!(a, [0.0; 4]);
+    }
 
     #[test]
     fn fitting_recovers_known_polynomials_exactly() {
