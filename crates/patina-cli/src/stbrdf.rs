@@ -32,7 +32,8 @@ pub enum Command {
     Enlarge(EnlargeArgs),
     /// Carry a material's time behaviour onto a static texture, equal to it at --t0.
     Transfer(TransferArgs),
-    /// Evaluate a material at several times: parameter maps, shaded plane and sphere, GIF, WGSL/GLSL shaders.
+    /// Evaluate a material at several times: parameter maps, shaded plane and sphere, GIF, and shaders that evaluate it on the GPU
+    /// (WGSL, GLSL, HLSL, and a Unity ShaderLab surface shader).
     Render(RenderArgs),
 }
 
@@ -486,15 +487,20 @@ fn run_render(args: RenderArgs) -> Result<()> {
         previews.push(side_by_side(&plane, &sphere));
     }
     save_gif(&previews.iter().collect::<Vec<_>>(), dir.join("sequence.gif"), args.gif_delay)?;
-    io::write_atomic(&dir.join("material.wgsl"), |b| {
-        b.extend_from_slice(shader::wgsl(&material).as_bytes());
-        Ok(())
-    })?;
-    io::write_atomic(&dir.join("material.glsl"), |b| {
-        b.extend_from_slice(shader::glsl(&material).as_bytes());
-        Ok(())
-    })?;
-    manifest.outputs.extend(["sequence.gif".into(), "material.wgsl".into(), "material.glsl".into()]);
+    let shaders = [
+        ("material.wgsl", shader::wgsl(&material)),
+        ("material.glsl", shader::glsl(&material)),
+        ("material.hlsl", shader::hlsl(&material)),
+        ("material.shader", shader::shaderlab(&material)),
+    ];
+    for (name, text) in &shaders {
+        io::write_atomic(&dir.join(name), |b| {
+            b.extend_from_slice(text.as_bytes());
+            Ok(())
+        })?;
+        manifest.outputs.push(name.into());
+    }
+    manifest.outputs.push("sequence.gif".into());
     manifest.timings_ms.insert("render".into(), clock.lap());
     manifest.params = json!({ "times": times, "sphere": args.sphere, "lighting": lighting, "exposure_stops": args.exposure, "encoding": material.encoding, "tone_map": "aces" });
     manifest.inputs = vec![args.material.clone()];

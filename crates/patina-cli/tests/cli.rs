@@ -351,7 +351,10 @@ fn stbrdf_fits_enlarges_transfers_and_renders() {
     ok(&["stbrdf", "transfer", s(&mat), "--target", s(&target), "--t0", "1", "-o", s(&moved)]);
     let renders = dir.join("renders");
     ok(&["stbrdf", "render", s(&moved), "-o", s(&renders), "--frames", "3", "--sphere", "64"]);
-    assert_eq!(listing(&renders), vec!["frames", "manifest.json", "material.glsl", "material.wgsl", "sequence.gif"]);
+    assert_eq!(
+        listing(&renders),
+        vec!["frames", "manifest.json", "material.glsl", "material.hlsl", "material.shader", "material.wgsl", "sequence.gif"]
+    );
     // 3 times x (3 parameter maps + plane + sphere).
     assert_eq!(listing(&renders.join("frames")).len(), 15);
     let last = load(renders.join("frames/002_basecolor.png")).unwrap();

@@ -147,8 +147,9 @@ impl Material {
         out
     }
 
-    /// Write `dir/{Name}-{i}.exr` for every parameter and coefficient, and
-    /// `dir/material.json`. The folder is created if missing.
+    /// Write `dir/{Name}-{i}.exr` for every parameter and coefficient,
+    /// `dir/material.json` and `dir/README.md` ([`Material::readme`]). The
+    /// folder is created if missing.
     pub fn save(&self, dir: &Path) -> Result<()> {
         std::fs::create_dir_all(dir).map_err(|source| Error::Write { path: dir.into(), source })?;
         let m = self.degree + 1;
@@ -171,7 +172,47 @@ impl Material {
             serde_json::to_writer_pretty(&mut *buf, &desc).map_err(|e| Error::Internal(format!("material.json: {e}")))?;
             buf.push(b'\n');
             Ok(())
+        })?;
+        crate::image::io::write_atomic(&dir.join("README.md"), |buf| {
+            buf.extend_from_slice(self.readme().as_bytes());
+            Ok(())
         })
+    }
+
+    /// The README written beside a saved material: what the files hold and
+    /// how to evaluate them, for a DCC tool or an engine.
+    pub fn readme(&self) -> String {
+        let m = self.degree + 1;
+        let (w, h) = self.size();
+        let mut s = format!(
+            "# Spatio-temporal material (patina)\n\n\
+             A {w} x {h} material whose every parameter is a degree-{} polynomial in time t on [0, 1]\n\
+             (Meister et al., \"Spatio-temporal BRDF\", 2021):\n\n    p(t) = a_0 + a_1 t + ... + a_{} t^{}\n\n\
+             ## Files\n\n| parameter | channels | coefficient textures |\n|---|---|---|\n",
+            self.degree, self.degree, self.degree
+        );
+        for p in &self.params {
+            let files: Vec<String> = (0..m).map(|k| format!("`{}-{k}.exr`", p.name)).collect();
+            s += &format!("| {} | {} | {} |\n", p.name, p.channels, files.join(", "));
+        }
+        s += &format!(
+            "\n`{{Name}}-{{i}}.exr` holds coefficient a_i of every channel of parameter Name (32-bit float EXR;\n\
+             single-channel parameters in one channel). `material.json` lists the degree, the parameters in order and\n\
+             the colour encoding. Load the EXRs as linear data (no sRGB decoding), evaluate p(t) per texel, then:\n\n\
+             - Diffuse and Specular are {}.\n\
+             - Specular is the Fresnel reflectance at normal incidence (F0); Roughness is GGX alpha = roughness^2;\n  \
+             Normal is a tangent-space normal map (n = 2 rgb - 1); Height is a height map.\n\n\
+             ## Use\n\n\
+             - `patina stbrdf render THIS_FOLDER -o OUT` writes previews and shaders that evaluate the material on the GPU\n  \
+             (`material.wgsl`, `material.glsl`, `material.hlsl`, and `material.shader` for Unity's built-in pipeline).\n\
+             - `patina stbrdf enlarge` and `patina stbrdf transfer` take this folder as input.\n\
+             - The same layout as meistdan/tsvbrdf (`Diffuse-0.exr` ...), whose tools read it too.\n",
+            match self.encoding {
+                Encoding::Srgb => "sRGB-encoded values (fitted to 8-bit photos): decode them to linear after evaluating",
+                Encoding::Linear => "linear values",
+            }
+        );
+        s
     }
 
     /// Load a material folder: ours (with `material.json`) or tsvbrdf's.

@@ -1,9 +1,15 @@
 //! Shader source that evaluates a material at time t from its coefficient
 //! textures, for engines (as the paper's Unity shader): one texture per
 //! parameter and coefficient (`{Name}-{i}.exr`, bound in that order), and
-//! Horner's rule per parameter. WGSL and GLSL.
+//! Horner's rule per parameter. WGSL, GLSL (450, explicit bindings), HLSL
+//! and a Unity ShaderLab surface shader built on the HLSL.
+//!
+//! The coefficient textures are EXRs and must be sampled as linear data
+//! (no sRGB decoding). For a material whose colours are sRGB-encoded
+//! ([`Encoding::Srgb`], fitted to 8-bit photos) the Unity shader decodes
+//! the evaluated Diffuse and Specular to linear before lighting.
 
-use super::material::{Material, Param};
+use super::material::{Encoding, Material, Param};
 
 /// The identifier for a parameter name (lower case, letters and digits).
 fn ident(name: &str) -> String {
@@ -73,17 +79,19 @@ pub fn wgsl(material: &Material) -> String {
     s
 }
 
-/// GLSL (450): `uniform sampler2D {name}_{i}` per coefficient, a struct
-/// and `evaluateMaterial(uv, t)`.
+/// GLSL (450): `layout(binding = n) uniform sampler2D {name}_{i}` per
+/// coefficient (in order from 0), a struct and `evaluateMaterial(uv, t)`.
 pub fn glsl(material: &Material) -> String {
     let m = material.degree + 1;
     let mut s = format!(
         "// patina: spatio-temporal material, degree {}, evaluated at t in [0, 1].\n// Textures: {{Name}}-{{i}}.exr, coefficient i of t^i.\n#version 450\n\n",
         material.degree
     );
+    let mut binding = 0;
     for p in &material.params {
         for k in 0..m {
-            s += &format!("uniform sampler2D {}_{k}; // {}-{k}.exr\n", ident(&p.name), p.name);
+            s += &format!("layout(binding = {binding}) uniform sampler2D {}_{k}; // {}-{k}.exr\n", ident(&p.name), p.name);
+            binding += 1;
         }
     }
     s += &structure(
@@ -95,6 +103,76 @@ pub fn glsl(material: &Material) -> String {
     s += &horner(material, "m", |id, k| format!("texture({id}_{k}, uv)"));
     s += "    return m;\n}\n";
     s
+}
+
+/// HLSL (Shader Model 4+): `Texture2D {name}_{i}` with its
+/// `SamplerState sampler_{name}_{i}` (Unity's naming), a struct and
+/// `EvaluateMaterial(uv, t)`.
+pub fn hlsl(material: &Material) -> String {
+    let m = material.degree + 1;
+    let mut s = format!(
+        "// patina: spatio-temporal material, degree {}, evaluated at t in [0, 1].\n// Textures: {{Name}}-{{i}}.exr, coefficient i of t^i, sampled as linear data.\n\n",
+        material.degree
+    );
+    for p in &material.params {
+        for k in 0..m {
+            let id = ident(&p.name);
+            s += &format!("Texture2D {id}_{k}; SamplerState sampler_{id}_{k}; // {}-{k}.exr\n", p.name);
+        }
+    }
+    s += &structure(
+        material,
+        |p| if p.channels == 1 { "float".into() } else { format!("float{}", p.channels.min(4)) },
+        |ty, id| format!("    {ty} {id};"),
+    );
+    s += "};\n\nMaterial EvaluateMaterial(float2 uv, float t) {\n    Material m;\n";
+    s += &horner(material, "m", |id, k| format!("{id}_{k}.SampleLevel(sampler_{id}_{k}, uv, 0)"));
+    s += "    return m;\n}\n";
+    s
+}
+
+/// A Unity (built-in pipeline) surface shader: the coefficient textures and
+/// the time as material properties, [`hlsl`]'s evaluation, and the
+/// StandardSpecular lighting model fed with Diffuse (albedo), Specular,
+/// 1 - Roughness (smoothness) and the tangent-space Normal, those the
+/// material has.
+pub fn shaderlab(material: &Material) -> String {
+    let m = material.degree + 1;
+    let mut props = String::from("        _MaterialTime (\"Time t\", Range(0, 1)) = 0\n");
+    for p in &material.params {
+        for k in 0..m {
+            props += &format!("        {}_{k} (\"{}-{k}.exr (linear, no sRGB)\", 2D) = \"black\" {{}}\n", ident(&p.name), p.name);
+        }
+    }
+    let has = |name: &str| material.param(name).map(|r| r.len());
+    let decode =
+        |v: &str| if material.encoding == Encoding::Srgb { format!("GammaToLinearSpace(saturate({v}))") } else { format!("saturate({v})") };
+    let mut surf = String::from("            Material m = EvaluateMaterial(IN.uv_diffuse_0, _MaterialTime);\n");
+    surf += &match has("diffuse") {
+        Some(3) => format!("            o.Albedo = {};\n", decode("m.diffuse")),
+        Some(1) => format!("            o.Albedo = {};\n", decode("m.diffuse.xxx")),
+        _ => "            o.Albedo = 0.5;\n".into(),
+    };
+    surf += &match has("specular") {
+        Some(3) => format!("            o.Specular = {};\n", decode("m.specular")),
+        Some(1) => format!("            o.Specular = {};\n", decode("m.specular.xxx")),
+        _ => "            o.Specular = 0.04;\n".into(),
+    };
+    surf += match has("roughness") {
+        Some(1) => "            o.Smoothness = 1.0 - saturate(m.roughness);\n",
+        _ => "            o.Smoothness = 0.5;\n",
+    };
+    if has("normal") == Some(3) {
+        surf += "            o.Normal = normalize(m.normal * 2.0 - 1.0);\n";
+    }
+    let uv_name = material.params.first().map_or("diffuse".to_string(), |p| ident(&p.name));
+    let surf = surf.replace("IN.uv_diffuse_0", &format!("IN.uv_{uv_name}_0"));
+    format!(
+        "// patina: spatio-temporal material for Unity's built-in pipeline (surface shader).\n\
+         // Import every {{Name}}-{{i}}.exr with sRGB (Color Texture) off, and animate _MaterialTime in [0, 1].\n\
+         Shader \"Patina/SpatioTemporal\" {{\n    Properties {{\n{props}    }}\n    SubShader {{\n        Tags {{ \"RenderType\" = \"Opaque\" }}\n        CGPROGRAM\n        #pragma surface surf StandardSpecular fullforwardshadows\n        #pragma target 4.0\n{}\n        float _MaterialTime;\n        struct Input {{ float2 uv_{uv_name}_0; }};\n\n        void surf(Input IN, inout SurfaceOutputStandardSpecular o) {{\n{surf}        }}\n        ENDCG\n    }}\n    FallBack \"Diffuse\"\n}}\n",
+        hlsl(material)
+    )
 }
 
 #[cfg(test)]
@@ -114,5 +192,71 @@ mod tests {
         assert_eq!(g.matches("uniform sampler2D").count(), 12);
         assert!(g.contains("m.diffuse = texture(diffuse_3, uv).rgb;"));
         assert_eq!(g.matches(" * t + ").count(), 9, "three Horner steps for each of three parameters");
+        let h = hlsl(&m);
+        assert_eq!(h.matches("Texture2D ").count(), 12);
+        let unity = shaderlab(&m);
+        assert!(unity.contains(&h), "the Unity shader embeds the HLSL evaluation");
+        assert!(unity.contains("o.Smoothness = 1.0 - saturate(m.roughness);"));
+    }
+
+    fn full_material() -> Material {
+        let params = vec![
+            Param { name: "Diffuse".into(), channels: 3 },
+            Param { name: "Specular".into(), channels: 3 },
+            Param { name: "Roughness".into(), channels: 1 },
+            Param { name: "Normal".into(), channels: 3 },
+            Param { name: "Height".into(), channels: 1 },
+        ];
+        Material::new(3, params, crate::Image::new(2, 2, 11 * 4)).unwrap()
+    }
+
+    /// The WGSL parses and validates with naga (wgpu's compiler).
+    #[test]
+    fn wgsl_compiles() {
+        for m in [full_material(), Material::new(2, drying_wood_params(), crate::Image::new(2, 2, 21)).unwrap()] {
+            let src = wgsl(&m);
+            let module = naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{}\n{src}", e.emit_to_string(&src)));
+            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{e:?}\n{src}"));
+        }
+    }
+
+    /// Compile `src` with glslang (`glslangValidator`, from the
+    /// glslang-tools package, which CI installs) with `args`; `false`
+    /// (saying so) when the tool is missing.
+    fn glslang(args: &[&str], src: &str, file_name: &str) -> bool {
+        let tool = "glslangValidator";
+        if std::process::Command::new(tool).arg("--version").output().is_err() {
+            eprintln!("SKIPPED: {tool} not found (apt-get install glslang-tools)");
+            return false;
+        }
+        let dir = std::env::temp_dir().join(format!("patina-shader-{}-{file_name}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join(file_name);
+        std::fs::write(&file, src).unwrap();
+        let out = std::process::Command::new(tool).args(args).arg("-o").arg(dir.join("out.spv")).arg(&file).output().unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        assert!(out.status.success(), "{}\n{}\n{src}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        true
+    }
+
+    /// The GLSL, with a fragment main that uses the material, compiles
+    /// with glslang for OpenGL (naga's GLSL front end has no combined
+    /// samplers, which OpenGL needs).
+    #[test]
+    fn glsl_compiles() {
+        let src = glsl(&full_material())
+            + "\nlayout(location = 0) in vec2 v_uv;\nlayout(location = 0) out vec4 colour;\nvoid main() {\n    Material m = evaluateMaterial(v_uv, 0.5);\n    colour = vec4(m.diffuse * m.roughness + m.normal * m.height + m.specular, 1.0);\n}\n";
+        glslang(&["-G"], &src, "material.frag");
+    }
+
+    /// The HLSL, with a pixel shader that uses the material, compiles with
+    /// glslang's HLSL front end.
+    #[test]
+    fn hlsl_compiles() {
+        let src = hlsl(&full_material())
+            + "\nfloat4 main(float2 uv : TEXCOORD0) : SV_Target {\n    Material m = EvaluateMaterial(uv, 0.5);\n    return float4(m.diffuse * m.roughness + m.normal * m.height + m.specular, 1.0);\n}\n";
+        glslang(&["-D", "-V", "-S", "frag", "-e", "main"], &src, "material.hlsl");
     }
 }
