@@ -147,7 +147,8 @@ fn masked_transfer_leaves_the_outside_alone_and_grows_spots_inside() {
             areas.push(changed as f32 / inside as f32);
         }
         assert!(areas[0] == 0.0, "{mode:?}: at t0 the result is the target");
-        assert!(areas[10] > 0.1 && areas[10] > areas[3] + 0.05, "{mode:?}: the changed share grows over t: {areas:?}");
+        // The source's own changed share grows 0.2 -> 0.3 from t = 0.3 to 1.
+        assert!(areas[10] > 0.1 && areas[10] > 1.15 * areas[3], "{mode:?}: the changed share grows over t: {areas:?}");
         if mode == Mode::Grow {
             assert!(areas[10] < 0.85, "grow: spots cover part of the object, not all of it: {areas:?}");
             assert!(areas.windows(2).all(|p| p[1] >= p[0] - 0.02), "grow: the covered area does not shrink: {areas:?}");

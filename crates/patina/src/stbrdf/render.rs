@@ -35,7 +35,8 @@ use std::ops::Range;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Environment {
-    /// One directional light plus a small ambient term.
+    /// One directional light plus a fill from the procedural sky (its
+    /// share is `Lighting::ambient`), so shadowed sides keep their detail.
     #[default]
     Sun,
     /// A procedural sky: a bluish zenith fading to a bright horizon over a
@@ -44,7 +45,7 @@ pub enum Environment {
 }
 
 /// Light and view directions (towards the light / the viewer, unit length
-/// after normalisation), the ambient share, the environment and the
+/// after normalisation), the share of sky fill under the sun, the environment and the
 /// exposure (a factor on radiance before tone-mapping).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Lighting {
@@ -57,7 +58,7 @@ pub struct Lighting {
 
 impl Default for Lighting {
     fn default() -> Self {
-        Lighting { light: [0.45, 0.55, 0.70], view: [0.0, 0.0, 1.0], ambient: 0.08, environment: Environment::Sun, exposure: 1.0 }
+        Lighting { light: [0.45, 0.55, 0.70], view: [0.0, 0.0, 1.0], ambient: 0.25, environment: Environment::Sun, exposure: 1.0 }
     }
 }
 
@@ -133,8 +134,9 @@ pub fn shade(kd: [f32; 3], ks: [f32; 3], roughness: f32, n: [f32; 3], lighting: 
     let h = normalize([l[0] + v[0], l[1] + v[1], l[2] + v[2]]);
     let (nl, nh, vh) = (dot(n, l), dot(n, h).max(0.0), dot(v, h).max(0.0));
     let mut out = [0.0f32; 3];
+    let fill = sky_irradiance(n);
     for c in 0..3 {
-        out[c] = lighting.ambient * kd[c];
+        out[c] = lighting.ambient * kd[c] * fill[c];
     }
     if nl <= 0.0 {
         return out;
@@ -151,6 +153,13 @@ pub fn shade(kd: [f32; 3], ks: [f32; 3], roughness: f32, n: [f32; 3], lighting: 
         out[c] += PI * (kd[c] / PI + spec) * nl;
     }
     out
+}
+
+/// Whether `material`'s normal map is DirectX-style (green pointing down
+/// the image), as the previews read it: from its Height when it has one,
+/// else OpenGL-style. `false` without a 3-channel Normal.
+pub fn normal_green_down(material: &Material) -> bool {
+    Layout::of(material).green_down
 }
 
 /// The ACES filmic curve (Narkowicz 2015's fit), mapping linear radiance
@@ -232,15 +241,44 @@ struct Layout {
     ks: Option<Range<usize>>,
     roughness: Option<usize>,
     normal: Option<usize>,
+    /// The normal map's green channel points down the image (DirectX, as
+    /// Substance exports by default) rather than up (OpenGL).
+    green_down: bool,
+}
+
+/// Roughness of materials without a Roughness parameter (albedo-only
+/// captures): matte, since a captured albedo says nothing of gloss and a
+/// glossy default made rusted steel look lacquered.
+const DEFAULT_ROUGHNESS: f32 = 0.8;
+
+/// Whether the normal map (channels `c..c + 3`) is DirectX-style, told from
+/// the Height parameter when there is one: a bump's normal leans away from
+/// the slope, so with green pointing up the image (OpenGL) n_y follows
+/// +dh/drow (rows run down) and with green pointing down it follows
+/// -dh/drow. Without a Height, OpenGL is assumed.
+pub(crate) fn normal_green_points_down(material: &Material, c: usize) -> bool {
+    let Some(height) = material.param("height") else { return false };
+    let frame = material.evaluate(0.5);
+    let (w, h) = frame.size();
+    let mut corr = 0.0f64;
+    for y in 1..h.saturating_sub(1) {
+        for x in 0..w {
+            let dh = frame.at(x, y + 1, height.start) - frame.at(x, y - 1, height.start);
+            corr += f64::from(dh * (2.0 * frame.at(x, y, c + 1) - 1.0));
+        }
+    }
+    corr < 0.0
 }
 
 impl Layout {
     fn of(material: &Material) -> Self {
+        let normal = material.param("normal").filter(|r| r.len() == 3).map(|r| r.start);
         Layout {
             kd: material.param("diffuse"),
             ks: material.param("specular"),
             roughness: material.param("roughness").map(|r| r.start),
-            normal: material.param("normal").filter(|r| r.len() == 3).map(|r| r.start),
+            normal,
+            green_down: normal.is_some_and(|c| normal_green_points_down(material, c)),
         }
     }
 
@@ -253,8 +291,10 @@ impl Layout {
                 None => default,
             }
         };
-        let roughness = self.roughness.map_or(0.5, |c| p[c]);
-        let normal = self.normal.map_or([0.0, 0.0, 1.0], |c| normalize([2.0 * p[c] - 1.0, 2.0 * p[c + 1] - 1.0, 2.0 * p[c + 2] - 1.0]));
+        let roughness = self.roughness.map_or(DEFAULT_ROUGHNESS, |c| p[c]);
+        let green = if self.green_down { -1.0 } else { 1.0 };
+        let normal =
+            self.normal.map_or([0.0, 0.0, 1.0], |c| normalize([2.0 * p[c] - 1.0, green * (2.0 * p[c + 1] - 1.0), 2.0 * p[c + 2] - 1.0]));
         (rgb(&self.kd, [0.5; 3]), rgb(&self.ks, [0.04; 3]), roughness.clamp(0.0, 1.0), normal)
     }
 }
@@ -364,8 +404,36 @@ mod tests {
         assert!((c[0] - 0.5).abs() < 1e-4 && (c[1] - 0.25).abs() < 1e-4, "{c:?}");
         let glossy = |n: [f32; 3]| shade([0.0; 3], [0.04; 3], 0.2, normalize(n), &sun([0.5, 0.0, 0.866], [-0.5, 0.0, 0.866]))[0];
         assert!(glossy([0.0, 0.0, 1.0]) > 5.0 * glossy([0.3, 0.0, 1.0]), "the highlight is where the half vector meets the normal");
-        let below = shade([1.0; 3], [0.04; 3], 0.5, [0.0, 0.0, 1.0], &Lighting { light: [0.0, 0.0, -1.0], ..Lighting::default() });
-        assert!(below.iter().all(|v| (v - 0.08).abs() < 1e-6), "only ambient when the light is behind");
+        let lighting = Lighting { light: [0.0, 0.0, -1.0], ..Lighting::default() };
+        let below = shade([1.0; 3], [0.04; 3], 0.5, [0.0, 0.0, 1.0], &lighting);
+        let fill = sky_irradiance([0.0, 0.0, 1.0]);
+        assert!(below.iter().zip(fill).all(|(v, f)| (v - lighting.ambient * f).abs() < 1e-6), "only the sky fill when the sun is behind");
+    }
+
+    /// A bump's normal map in OpenGL and DirectX conventions is told apart
+    /// by its Height, so both render lit from the same side.
+    #[test]
+    fn the_normal_maps_green_direction_is_read_from_the_height() {
+        use crate::stbrdf::Param;
+        let params = vec![Param { name: "Normal".into(), channels: 3 }, Param { name: "Height".into(), channels: 1 }];
+        let bump = |x: f32, y: f32| (-((x - 16.0).powi(2) + (y - 16.0).powi(2)) / 40.0).exp();
+        for down in [false, true] {
+            let coef = Image::from_fn(32, 32, 8, |x, y, p| {
+                let (fx, fy) = (x as f32, y as f32);
+                let (dx, drow) = (bump(fx + 0.5, fy) - bump(fx - 0.5, fy), bump(fx, fy + 0.5) - bump(fx, fy - 0.5));
+                let ny = if down { -drow } else { drow };
+                let n = normalize([-4.0 * dx, 4.0 * ny, 1.0]);
+                for c in 0..3 {
+                    p[2 * c] = 0.5 + 0.5 * n[c];
+                }
+                p[6] = bump(fx, fy);
+            });
+            let m = Material::new(1, params.clone(), coef).unwrap();
+            assert_eq!(Layout::of(&m).green_down, down);
+            // Lit from above: the bump's upper flank is brighter than its lower one.
+            let img = plane(&m, 0.0, &Lighting { light: [0.0, 0.7, 0.7], ..Lighting::default() });
+            assert!(img.at(16, 12, 0) > img.at(16, 20, 0) + 0.05, "green down {down}: {} vs {}", img.at(16, 12, 0), img.at(16, 20, 0));
+        }
     }
 
     #[test]

@@ -21,17 +21,24 @@
 //!   in its own spatial pattern. Ratio and offset move every texel at once,
 //!   which on a photo reads as a tint over all of it; in grow mode each
 //!   texel is covered by the material as far as its own change has come:
-//!   c(x, t) = smoothstep(D/4, 3D/4, |p(x, t) - p(x, t0)|), with D the
-//!   95th percentile of the texels' final change (what the whole surface
-//!   does, a general darkening or the capture's drift, stays below the
-//!   ramp; spots pass it), and
-//!   out(x, t) = target(x) + c(x, t) (S(x) p(x, t) - target(x)), where
-//!   S is the target's luminance over its median (its shading, so the
-//!   arriving material is lit like the object). A spot that
+//!   c(x, t) = smoothstep(0.15, 0.45, g(x, t)) with g the texel's
+//!   progress towards its end state (t_D = 1, or 0 when t0 > 0.5):
+//!   the projection of p(x, t) - p(x, t0) on D(x) = p(x, t_D) - p(x, t0),
+//!   over |D(x)|^2. Changes in other
+//!   directions (bare steel brightening before it rusts, a capture's
+//!   drift) do not count, a spot counts as arrived before it has darkened
+//!   all the way. The material arrives only on texels whose whole change
+//!   |D| passes 0.3 to 0.6 of the 90th percentile's (the spots, not
+//!   rusting steel's pale background, which washed the object out);
+//!   out(x, t) = target(x) + c(x, t) (S(x) p(x, t_D) - target(x)), where
+//!   p(x, t_D) is what the material becomes there (rust, not the bare
+//!   steel it was before it rusted) and S is the target's
+//!   luminance over its median (its shading, so the arriving material is
+//!   lit like the object). A spot that
 //!   appears late in the source appears late on the target, where the
 //!   guided synthesis put it. The result is refitted per texel by least
 //!   squares, with the polynomial pinned to the target at t0
-//!   ([`Fitter::anchored`]).
+//!   ([`Fitter::anchored`]), at degree 6 at least ([`GROW_DEGREE`]).
 //!
 //! With a mask, only the object changes: the result is blended with the
 //! target by the mask's value, and texels outside it hold the target as a
@@ -54,10 +61,19 @@ const RATIO_LIMIT: f32 = 4.0;
 /// [`Mode::Auto`] picks offset when the median texel's largest change is at
 /// least this share of its value at t0.
 const AUTO_OFFSET_CHANGE: f32 = 0.5;
-/// [`Mode::Grow`]'s cover ramps from 1/4 to 3/4 of the 95th percentile of
-/// the texels' final change (over the object).
-const GROW_TOP: f32 = 0.95;
-const GROW_RAMP: (f32, f32) = (0.25, 0.75);
+/// [`Mode::Grow`]'s cover ramps over this band of a texel's progress
+/// towards its largest change (module docs).
+const GROW_PROGRESS: (f32, f32) = (0.15, 0.45);
+/// The material arrives on texels whose whole change (an RGB distance)
+/// passes this band of the 90th percentile's ([`GROW_TOP`]), and never
+/// where it is below [`GROW_MIN_CHANGE`].
+const GROW_TOP: f32 = 0.9;
+const GROW_BAND: (f32, f32) = (0.3, 0.6);
+const GROW_MIN_CHANGE: (f32, f32) = (0.04, 0.12);
+/// Smallest degree of [`Mode::Grow`]'s result: a cubic cannot follow a
+/// texel's cover switching on, and rang (a spot darkening, lightening,
+/// then darkening again).
+const GROW_DEGREE: usize = 6;
 /// Limits of the target's shading (luminance over its median) that
 /// [`Mode::Grow`] lights the arriving material with.
 const SHADING_RANGE: (f32, f32) = (0.2, 2.0);
@@ -168,11 +184,11 @@ pub fn transfer(
         Mode::Auto => Mode::Ratio,
         chosen => chosen,
     };
-    let coefficients = match mode {
+    let (degree, coefficients) = match mode {
         Mode::Grow => grow(&synthesized, target, mask, kd, t0)?,
-        _ => scaled(&synthesized, target, kd, t0, mode),
+        _ => (material.degree, scaled(&synthesized, target, kd, t0, mode)),
     };
-    let mut out = Material::new(material.degree, material.params.clone(), coefficients)?;
+    let mut out = Material::new(degree, material.params.clone(), coefficients)?;
     out.encoding = material.encoding;
     if let Some(m) = mask {
         keep_outside(&mut out, target, m, t0);
@@ -216,31 +232,58 @@ fn scaled(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f
 }
 
 /// [`Mode::Grow`] (module docs): per texel, the cover c(t) from the
-/// synthesized Diffuse's change since t0, the Diffuse pulled from the
-/// target towards the material (lit by the target's shading) by c, every
-/// other parameter from its t0 value towards its value at t by c,
-/// refitted pinned at t0.
-fn grow(material: &Material, target: &Image, mask: Option<&Image>, kd: std::ops::Range<usize>, t0: f32) -> Result<Image> {
-    let (d, m) = (material.degree, material.degree + 1);
-    let samples = 4 * m;
+/// synthesized Diffuse's progress towards its end state, the Diffuse
+/// pulled from the target towards what the material becomes there (lit by
+/// the target's shading) by c, every other parameter from its t0 value
+/// towards its value then by c, refitted pinned at t0.
+fn grow(material: &Material, target: &Image, mask: Option<&Image>, kd: std::ops::Range<usize>, t0: f32) -> Result<(usize, Image)> {
+    let m = material.degree + 1;
+    let out_degree = material.degree.max(GROW_DEGREE);
+    let samples = 4 * (out_degree + 1);
     let times: Vec<f32> = (0..samples).map(|i| i as f32 / (samples - 1) as f32).collect();
-    let fitter = Fitter::anchored(&times, d, t0)?;
+    let fitter = Fitter::anchored(&times, out_degree, t0)?;
+    let mo = out_degree + 1;
     let channels = material.channels();
-    let change = |a: &[f32], t: f32| -> f32 {
-        kd.clone().map(|c| (evaluate(&a[c * m..(c + 1) * m], t) - evaluate(&a[c * m..(c + 1) * m], t0)).powi(2)).sum::<f32>().sqrt()
+    // The Diffuse change since t0 at each sample time.
+    let delta = |a: &[f32], t: f32| -> [f32; 3] {
+        std::array::from_fn(|i| {
+            let c = kd.start + i;
+            evaluate(&a[c * m..(c + 1) * m], t) - evaluate(&a[c * m..(c + 1) * m], t0)
+        })
     };
     let coefficients = &material.coefficients;
     let n = coefficients.channels();
-    // The cover ramps over a band of the largest changes (the 95th
-    // percentile's final change): a general darkening or the capture's
-    // drift stays below it, the spots pass it.
-    let finals: Vec<f32> = coefficients.data().par_chunks(n).map(|a| times.iter().map(|&t| change(a, t)).fold(0.0f32, f32::max)).collect();
+    // Each texel's cover is its progress towards its own end state (t = 1,
+    // or t = 0 when t0 is past the middle): the projection of the change so
+    // far on the whole change. Changes in other directions (bare steel
+    // brightening before it rusts, the capture's drift) do not count, and
+    // a spot counts as arrived well before it has darkened all the way.
+    let end_at = if t0 <= 0.5 { 1.0 } else { 0.0 };
+    let whole = |a: &[f32]| delta(a, end_at).iter().map(|v| v * v).sum::<f32>().sqrt();
+    // Which texels the material arrives on: those whose whole change is
+    // near the largest (the 90th percentile over the object). The rest of
+    // the material (rusting steel's pale background) stays the target's:
+    // covering the paint with it washed the object out.
+    let sizes: Vec<f32> = coefficients.data().par_chunks(n).map(whole).collect();
     let inside: Vec<f32> = match mask {
-        Some(mk) => finals.iter().zip(mk.data()).filter(|(_, w)| **w > 0.5).map(|(f, _)| *f).collect(),
-        None => finals.clone(),
+        Some(mk) => sizes.iter().zip(mk.data()).filter(|(_, w)| **w > 0.5).map(|(v, _)| *v).collect(),
+        None => sizes.clone(),
     };
-    let top = if inside.is_empty() { 1.0 } else { quantile(&inside, GROW_TOP).max(1e-3) };
-    let (lo, hi) = (GROW_RAMP.0 * top, GROW_RAMP.1 * top);
+    let top = if inside.is_empty() { 1.0 } else { quantile(&inside, GROW_TOP) };
+    let band = ((GROW_BAND.0 * top).max(GROW_MIN_CHANGE.0), (GROW_BAND.1 * top).max(GROW_MIN_CHANGE.1));
+    let cover_of = |a: &[f32]| -> Vec<f32> {
+        let end = delta(a, end_at);
+        let size = end.iter().map(|v| v * v).sum::<f32>();
+        let matters = smoothstep(band.0, band.1, size.sqrt());
+        times
+            .iter()
+            .map(|&t| {
+                let d = delta(a, t);
+                let progress = if size > 0.0 { (d[0] * end[0] + d[1] * end[1] + d[2] * end[2]) / size } else { 0.0 };
+                matters * smoothstep(GROW_PROGRESS.0, GROW_PROGRESS.1, progress)
+            })
+            .collect()
+    };
     // The target's shading, relative to its median luminance (over the object).
     let lum = luminance(&target.select_channels(0..3));
     let lums: Vec<f32> = match mask {
@@ -248,30 +291,30 @@ fn grow(material: &Material, target: &Image, mask: Option<&Image>, kd: std::ops:
         None => lum.data().to_vec(),
     };
     let median = if lums.is_empty() { 1.0 } else { quantile(&lums, 0.5).max(1e-3) };
-    let mut out = Image::new(coefficients.width(), coefficients.height(), n);
+    let mut out = Image::new(coefficients.width(), coefficients.height(), channels * mo);
     out.data_mut()
-        .par_chunks_mut(n)
+        .par_chunks_mut(channels * mo)
         .zip(coefficients.data().par_chunks(n))
         .zip(target.data().par_chunks(target.channels()))
         .zip(lum.data().par_iter())
         .for_each(|(((o, a), want), &l)| {
             let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1);
-            let cover: Vec<f32> = times.iter().map(|&t| smoothstep(lo, hi, change(a, t))).collect();
+            let cover = cover_of(a);
             let mut q = vec![0f32; samples];
             for c in 0..channels {
                 let poly = &a[c * m..(c + 1) * m];
                 let diffuse = kd.contains(&c);
                 let base = if diffuse { want[c - kd.start] } else { evaluate(poly, t0) };
-                let gain = if diffuse { shading } else { 1.0 };
-                for ((qk, &t), &ck) in q.iter_mut().zip(&times).zip(&cover) {
-                    *qk = ck * (gain * evaluate(poly, t) - base);
+                let arrived = if diffuse { shading } else { 1.0 } * evaluate(poly, end_at);
+                for (qk, &ck) in q.iter_mut().zip(&cover) {
+                    *qk = ck * (arrived - base);
                 }
-                let dst = &mut o[c * m..(c + 1) * m];
+                let dst = &mut o[c * mo..(c + 1) * mo];
                 fitter.fit_into(&q, dst);
                 dst[0] += base;
             }
         });
-    Ok(out)
+    Ok((out_degree, out))
 }
 
 fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
