@@ -75,6 +75,12 @@ pub fn run(args: Args) -> Result<()> {
         args.out.display(),
         args.out.join("samples").display()
     );
+    eprintln!(
+        "patina demo: browse them with, e.g., patina view {} (or {}, {})",
+        args.out.join("weather").display(),
+        args.out.join("stbrdf").join("enlarged").display(),
+        args.out.join("stone").display()
+    );
     Ok(())
 }
 

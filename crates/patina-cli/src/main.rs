@@ -12,6 +12,7 @@ mod stbrdf;
 mod stone;
 mod synth;
 mod ttf;
+mod view;
 mod weather;
 
 use clap::{Parser, Subcommand};
@@ -55,6 +56,8 @@ enum Command {
     Metrics(metrics::Args),
     /// Run patina on built-in procedural samples, writing into ./patina-demo/.
     Demo(demo::Args),
+    /// Browse an output folder in a local web viewer: frames with a time slider, before/after wipe, maps, live materials.
+    View(view::Args),
 }
 
 fn main() -> ExitCode {
@@ -100,5 +103,6 @@ fn dispatch(command: Command) -> patina::Result<()> {
         Command::DecayTexture(a) => decay::run_texture(a),
         Command::Metrics(a) => metrics::run(a),
         Command::Demo(a) => demo::run(a),
+        Command::View(a) => view::run(a),
     }
 }
