@@ -177,7 +177,11 @@ async function sequenceView(listing) {
     }));
   }
   showParams(m, { tracks: tracks.map(([k, l]) => `${k} (${l.length})`) });
-  showFrame(0);
+  // A link can open at a frame and with the wipe on: ?frame=N&wipe=PERCENT.
+  const query = new URLSearchParams(location.search);
+  if (query.has('frame')) slider.value = Math.min(track.length - 1, Math.max(0, Number(query.get('frame')) || 0));
+  if (query.has('wipe')) { wipeOn.checked = true; wipe.value = Number(query.get('wipe')) || 50; }
+  showFrame(Number(slider.value));
   updateWipe();
   await loaded(main);
 

@@ -21,7 +21,8 @@
 //!   in its own spatial pattern. Ratio and offset move every texel at once,
 //!   which on a photo reads as a tint over all of it; in grow mode each
 //!   texel is covered by the material as far as its own change has come:
-//!   c(x, t) = smoothstep(0.15, 0.45, g(x, t)) with g the texel's
+//!   c(x, t) = smoothstep(0.05, 0.3, g(x, t)), never shrinking away
+//!   from t0 (what has arrived stays), with g the texel's
 //!   progress towards its end state (t_D = 1, or 0 when t0 > 0.5):
 //!   the projection of p(x, t) - p(x, t0) on D(x) = p(x, t_D) - p(x, t0),
 //!   over |D(x)|^2. Changes in other
@@ -63,7 +64,7 @@ const RATIO_LIMIT: f32 = 4.0;
 const AUTO_OFFSET_CHANGE: f32 = 0.5;
 /// [`Mode::Grow`]'s cover ramps over this band of a texel's progress
 /// towards its largest change (module docs).
-const GROW_PROGRESS: (f32, f32) = (0.15, 0.45);
+const GROW_PROGRESS: (f32, f32) = (0.05, 0.3);
 /// The material arrives on texels whose whole change (an RGB distance)
 /// passes this band of the 90th percentile's ([`GROW_TOP`]), and never
 /// where it is below [`GROW_MIN_CHANGE`].
@@ -275,14 +276,24 @@ fn grow(material: &Material, target: &Image, mask: Option<&Image>, kd: std::ops:
         let end = delta(a, end_at);
         let size = end.iter().map(|v| v * v).sum::<f32>();
         let matters = smoothstep(band.0, band.1, size.sqrt());
-        times
+        let mut cover: Vec<f32> = times
             .iter()
             .map(|&t| {
                 let d = delta(a, t);
                 let progress = if size > 0.0 { (d[0] * end[0] + d[1] * end[1] + d[2] * end[2]) / size } else { 0.0 };
                 matters * smoothstep(GROW_PROGRESS.0, GROW_PROGRESS.1, progress)
             })
-            .collect()
+            .collect();
+        // What has arrived stays: the cover only grows away from t0.
+        let first_after = times.iter().position(|&t| t >= t0).unwrap_or(times.len());
+        for k in first_after + 1..cover.len() {
+            cover[k] = cover[k].max(cover[k - 1]);
+        }
+        for k in (0..first_after.min(cover.len())).rev() {
+            let next = if k + 1 < cover.len() { cover[k + 1] } else { 0.0 };
+            cover[k] = cover[k].max(if k + 1 < first_after { next } else { 0.0 });
+        }
+        cover
     };
     // The target's shading, relative to its median luminance (over the object).
     let lum = luminance(&target.select_channels(0..3));
