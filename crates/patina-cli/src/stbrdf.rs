@@ -183,7 +183,7 @@ pub struct RenderArgs {
     /// The light: sun (one directional light from the upper right, plus a little ambient) or sky (a procedural sky and ground).
     #[arg(long, value_enum, default_value_t = LightArg::Sun)]
     pub light: LightArg,
-    /// Exposure in stops, applied to radiance before the ACES tone curve.
+    /// Exposure in stops, applied to radiance before the tone curve (Khronos PBR Neutral).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, -10.0, 10.0))]
     pub exposure: f32,
     /// How the colour maps are encoded: auto takes material.json's (sRGB for materials fitted to 8-bit images, linear otherwise).
@@ -502,7 +502,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     }
     manifest.outputs.push("sequence.gif".into());
     manifest.timings_ms.insert("render".into(), clock.lap());
-    manifest.params = json!({ "times": times, "sphere": args.sphere, "lighting": lighting, "exposure_stops": args.exposure, "encoding": material.encoding, "tone_map": "aces" });
+    manifest.params = json!({ "times": times, "sphere": args.sphere, "lighting": lighting, "exposure_stops": args.exposure, "encoding": material.encoding, "tone_map": "khronos-pbr-neutral" });
     manifest.inputs = vec![args.material.clone()];
     manifest.write(&dir.join("manifest.json"))?;
     out.commit()?;

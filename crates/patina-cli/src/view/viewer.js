@@ -236,14 +236,25 @@ async function galleryView(listing) {
 
 const SHADE_GLSL = `
 const float PI = 3.14159265;
-vec3 aces(vec3 x) { x = max(x, 0.0); return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0); }
+// Khronos PBR Neutral without its toe, as render.rs.
+vec3 neutral(vec3 c) {
+  c = max(c, 0.0);
+  float peak = max(c.r, max(c.g, c.b));
+  const float start = 0.76;
+  if (peak < start) return clamp(c, 0.0, 1.0);
+  float d = 1.0 - start;
+  float newPeak = 1.0 - d * d / (peak + d - start);
+  c *= newPeak / peak;
+  float g = 1.0 - 1.0 / (0.15 * (peak - newPeak) + 1.0);
+  return clamp(mix(c, vec3(newPeak), g), 0.0, 1.0);
+}
 vec3 toSrgb(vec3 v) { return mix(v * 12.92, 1.055 * pow(v, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), v)); }
 vec3 fromSrgb(vec3 v) { v = clamp(v, 0.0, 1.0); return mix(v / 12.92, pow((v + 0.055) / 1.055, vec3(2.4)), step(vec3(0.04045), v)); }
 // The previews' sun with a sky fill (render.rs: SKY_*, sky_irradiance, ambient 0.25).
 vec3 skyIrradiance(vec3 n) {
   float seeSky = 0.5 * (1.0 + n.y);
-  vec3 sky = vec3(1.25, 1.2, 1.15) + (vec3(0.55, 0.75, 1.1) - vec3(1.25, 1.2, 1.15)) * (2.0 / 3.0);
-  return seeSky * sky + (1.0 - seeSky) * vec3(0.3, 0.27, 0.24);
+  vec3 sky = vec3(2.1, 2.0, 1.9) + (vec3(0.95, 1.25, 1.8) - vec3(2.1, 2.0, 1.9)) * (2.0 / 3.0);
+  return seeSky * sky + (1.0 - seeSky) * vec3(0.55, 0.5, 0.45);
 }
 vec3 shade(vec3 kd, vec3 ks, float rough, vec3 n) {
   vec3 l = normalize(vec3(0.45, 0.55, 0.70)), v = vec3(0.0, 0.0, 1.0), h = normalize(l + v);
@@ -313,7 +324,7 @@ ${evalCode}
   float rough = ${has('roughness') ? 'clamp(roughness, 0.0, 1.0)' : '0.8'};
   vec3 nt = ${has('normal') && has('normal').channels === 3 ? `normalize((normal * 2.0 - 1.0) * vec3(1.0, ${meta.normal_green_down ? '-1.0' : '1.0'}, 1.0))` : 'vec3(0.0, 0.0, 1.0)'};
   vec3 n = normalize(nt.x * tangent + nt.y * bitangent + nt.z * ngeo);
-  colour = vec4(toSrgb(aces(shade(kd, ks, rough, n))), 1.0);
+  colour = vec4(toSrgb(neutral(shade(kd, ks, rough, n))), 1.0);
 }`;
 }
 

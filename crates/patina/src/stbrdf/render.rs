@@ -9,8 +9,11 @@
 //!   whose values are sRGB-encoded; linear for EXR materials);
 //! - shading is in linear light, under one directional light ([`Environment::Sun`])
 //!   or a procedural sky ([`Environment::Sky`]);
-//! - radiance is scaled by the exposure, tone-mapped with the ACES filmic
-//!   curve (Narkowicz's fit) and encoded as sRGB.
+//! - radiance is scaled by the exposure, tone-mapped with the Khronos PBR
+//!   Neutral curve and encoded as sRGB. Neutral is linear up to 0.76 and
+//!   only rolls off highlights, so an albedo shows at its own level and
+//!   contrast; ACES (tried first) darkened snow to grey and flattened bare
+//!   steel into a milky card.
 //!
 //! The sphere is supersampled (3 x 3 per pixel, which also smooths its
 //! outline) and each sample reads a mip-mapped frame at the level its
@@ -74,10 +77,10 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
 /// The sky's radiance at the zenith, at the horizon and from the ground
 /// (linear RGB). Its irradiance on a surface facing the horizon is about pi
 /// times the mean of sky and ground, so a white wall under it reflects
-/// about 0.8.
-const SKY_ZENITH: [f32; 3] = [0.55, 0.75, 1.1];
-const SKY_HORIZON: [f32; 3] = [1.25, 1.2, 1.15];
-const SKY_GROUND: [f32; 3] = [0.3, 0.27, 0.24];
+/// about 0.9 (the same as under the sun, so the two previews show a material at about the same level).
+const SKY_ZENITH: [f32; 3] = [0.95, 1.25, 1.8];
+const SKY_HORIZON: [f32; 3] = [2.1, 2.0, 1.9];
+const SKY_GROUND: [f32; 3] = [0.55, 0.5, 0.45];
 /// Screen up, the sky's zenith.
 const UP: [f32; 3] = [0.0, 1.0, 0.0];
 
@@ -162,17 +165,31 @@ pub fn normal_green_down(material: &Material) -> bool {
     Layout::of(material).green_down
 }
 
-/// The ACES filmic curve (Narkowicz 2015's fit), mapping linear radiance
-/// to [0, 1].
-pub fn aces(x: f32) -> f32 {
-    let x = x.max(0.0);
-    ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
+/// The Khronos PBR Neutral tone mapper (Khronos 3D Commerce, 2024):
+/// linear radiance to [0, 1], preserving hue and the base colour's level up
+/// to 0.76, then compressing highlights towards white. Simplification:
+/// without Neutral's toe, which subtracts the 4% Fresnel reflection an
+/// image-lit scene adds everywhere; a sun-lit diffuse surface has none, and
+/// the toe crushed dark rust (a 0.25 sRGB albedo showed at 0.15).
+pub fn pbr_neutral(rgb: [f32; 3]) -> [f32; 3] {
+    const START: f32 = 0.8 - 0.04;
+    const DESATURATION: f32 = 0.15;
+    let mut c = rgb;
+    let peak = c[0].max(c[1]).max(c[2]);
+    if peak < START {
+        return c.map(|v| v.clamp(0.0, 1.0));
+    }
+    let d = 1.0 - START;
+    let new_peak = 1.0 - d * d / (peak + d - START);
+    c = c.map(|v| v * new_peak / peak);
+    let g = 1.0 - 1.0 / (DESATURATION * (peak - new_peak) + 1.0);
+    c.map(|v| (v + (new_peak - v) * g).clamp(0.0, 1.0))
 }
 
-/// Linear radiance to a displayed sRGB value: exposure, ACES, sRGB.
+/// Linear radiance to a displayed sRGB value: exposure, PBR Neutral, sRGB.
 fn display(radiance: [f32; 3], exposure: f32, px: &mut [f32]) {
-    for (o, v) in px.iter_mut().zip(radiance) {
-        *o = linear_to_srgb(aces(exposure * v));
+    for (o, v) in px.iter_mut().zip(pbr_neutral(radiance.map(|v| (exposure * v).max(0.0)))) {
+        *o = linear_to_srgb(v);
     }
 }
 
