@@ -153,6 +153,9 @@ pub struct TransferArgs {
     /// grey blends). Its alpha channel is used if it has one, else its luminance.
     #[arg(long)]
     pub mask: Option<PathBuf>,
+    /// Soften the mask's edge inwards over this many pixels (a Gaussian of this sigma, never reaching outside it).
+    #[arg(long, default_value_t = 1.0, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    pub feather: f32,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -413,7 +416,10 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
                     target.height()
                 )));
             }
-            Some(m)
+            // Feathered inwards: min(mask, blurred mask) is 0 wherever the mask is.
+            let soft = patina::image::filter::gaussian_blur(&m, args.feather);
+            let data = m.data().iter().zip(soft.data()).map(|(a, b)| if args.feather > 0.0 { a.min(*b) } else { *a }).collect();
+            Some(Image::from_data(m.width(), m.height(), 1, data)?)
         }
         None => None,
     };
@@ -431,6 +437,7 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
     manifest.params = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
     manifest.params["mode_used"] = json!(moved.mode);
     manifest.params["masked"] = json!(mask.is_some());
+    manifest.params["feather"] = json!(args.feather);
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;

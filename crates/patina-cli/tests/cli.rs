@@ -362,6 +362,21 @@ fn stbrdf_fits_enlarges_transfers_and_renders() {
     let err = last.data().iter().zip(want.data()).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
     assert!(err <= 1.5 / 255.0, "at t0 = 1 the transferred base colour is the target ({err})");
     assert!(std::fs::read_to_string(renders.join("material.wgsl")).unwrap().contains("fn evaluate_material"));
+    // With a mask (the left half), the right half is the target at every t.
+    let mask = dir.join("mask.png");
+    save_png(&patina::Image::from_fn(50, 40, 1, |x, _, p| p[0] = if x < 25 { 1.0 } else { 0.0 }), &mask, BitDepth::Eight).unwrap();
+    let masked = dir.join("masked");
+    ok(&["stbrdf", "transfer", s(&mat), "--target", s(&target), "--mask", s(&mask), "-o", s(&masked)]);
+    let masked_renders = dir.join("masked_renders");
+    ok(&["stbrdf", "render", s(&masked), "-o", s(&masked_renders), "--frames", "3", "--sphere", "16"]);
+    for i in 0..3 {
+        let frame = load(masked_renders.join(format!("frames/{i:03}_basecolor.png"))).unwrap();
+        for y in 0..40 {
+            for x in 26..50 {
+                assert_eq!(frame.pixel(x, y), &want.pixel(x, y)[..3], "frame {i}: ({x}, {y}) outside the mask changed");
+            }
+        }
+    }
 }
 
 #[test]

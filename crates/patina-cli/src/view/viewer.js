@@ -129,7 +129,7 @@ async function sequenceView(listing) {
   const slider = el('input', { type: 'range', id: 'time', min: 0, max: track.length - 1, step: 1, value: 0 });
   const label = el('span', { id: 'time-label' });
   const play = el('button', { textContent: 'Play', id: 'play' });
-  const wipeOn = el('input', { type: 'checkbox', id: 'wipe-on' });
+  const wipeOn = el('input', { type: 'checkbox', id: 'wipe-on', title: 'left of the line: the input; right: the current frame' });
   const wipe = el('input', { type: 'range', id: 'wipe', min: 0, max: 100, value: 50 });
   const trackSelect = el('select', { id: 'track' }, ...tracks.map(([key], i) => el('option', { value: i, textContent: key })));
 
@@ -138,10 +138,19 @@ async function sequenceView(listing) {
     main.src = fileUrl(f.path);
     label.textContent = `t = ${Number(f.t).toFixed(3)}  (${i + 1}/${track.length})`;
   };
+  // The wipe compares with the input: weathering's input is the frame at
+  // t = 1 (its own age); the other jobs start from it at their first frame.
+  const reference = () => {
+    if (/^weather/.test(m.command)) {
+      const input = track.find((f) => Math.abs(f.t - 1) < 1e-6);
+      if (input) return input;
+    }
+    return track[0];
+  };
   const updateWipe = () => {
     before.hidden = !wipeOn.checked;
     line.hidden = !wipeOn.checked;
-    before.src = fileUrl(track[0].path);
+    before.src = fileUrl(reference().path);
     const x = Number(wipe.value);
     before.style.clipPath = `inset(0 ${100 - x}% 0 0)`;
     line.style.left = `${x}%`;
@@ -202,7 +211,8 @@ async function sequenceView(listing) {
 async function galleryView(listing) {
   const m = listing.manifest;
   $('what').textContent = m ? m.command : 'folder';
-  const images = listing.files.filter(isImage);
+  // This folder's own images; subfolders (a demo's jobs) are views of their own.
+  const images = listing.files.filter((p) => isImage(p) && !p.includes('/'));
   const exemplar = images.filter((p) => /exemplar|input|source/i.test(p.split('/').pop()));
   const outputs = images.filter((p) => !exemplar.includes(p));
   const ordered = [...exemplar, ...outputs];
@@ -224,6 +234,8 @@ async function galleryView(listing) {
     overlay.addEventListener('input', () => { map.style.opacity = Number(overlay.value) / 100; });
     controls.unshift(el('label', {}, 'source-coordinate map', overlay));
   }
+  const folders = [...new Set(listing.files.filter((p) => p.includes('/')).map((p) => p.split('/')[0]))];
+  if (folders.length) controls.push(el('span', { textContent: `subfolders (patina view each): ${folders.join(', ')}` }));
   $('controls').append(...controls);
   for (const p of images) $('panels').append(imagePanel(p, () => {}));
   showParams(m);
