@@ -29,7 +29,7 @@
 //!   directions (bare steel brightening before it rusts, a capture's
 //!   drift) do not count, a spot counts as arrived before it has darkened
 //!   all the way. The material arrives only on texels whose whole change
-//!   |D| passes 0.3 to 0.6 of the 90th percentile's (the spots, not
+//!   |D| passes 0.5 to 0.8 of the 90th percentile's (the spots, not
 //!   rusting steel's pale background, which washed the object out);
 //!   out(x, t) = target(x) + c(x, t) (S(x) p(x, t_D) - target(x)), where
 //!   p(x, t_D) is what the material becomes there (rust, not the bare
@@ -69,7 +69,7 @@ const GROW_PROGRESS: (f32, f32) = (0.05, 0.3);
 /// passes this band of the 90th percentile's ([`GROW_TOP`]), and never
 /// where it is below [`GROW_MIN_CHANGE`].
 const GROW_TOP: f32 = 0.9;
-const GROW_BAND: (f32, f32) = (0.3, 0.6);
+const GROW_BAND: (f32, f32) = (0.5, 0.8);
 const GROW_MIN_CHANGE: (f32, f32) = (0.04, 0.12);
 /// Smallest degree of [`Mode::Grow`]'s result: a cubic cannot follow a
 /// texel's cover switching on, and rang (a spot darkening, lightening,
