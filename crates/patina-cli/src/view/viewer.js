@@ -265,7 +265,7 @@ vec3 fromSrgb(vec3 v) { v = clamp(v, 0.0, 1.0); return mix(v / 12.92, pow((v + 0
 // The previews' sun with a sky fill (render.rs: SKY_*, sky_irradiance, ambient 0.25).
 vec3 skyIrradiance(vec3 n) {
   float seeSky = 0.5 * (1.0 + n.y);
-  vec3 sky = vec3(2.1, 2.0, 1.9) + (vec3(0.95, 1.25, 1.8) - vec3(2.1, 2.0, 1.9)) * (2.0 / 3.0);
+  vec3 sky = vec3(2.05, 2.0, 1.95) + (vec3(1.25, 1.35, 1.55) - vec3(2.05, 2.0, 1.95)) * (2.0 / 3.0);
   return seeSky * sky + (1.0 - seeSky) * vec3(0.55, 0.5, 0.45);
 }
 vec3 shade(vec3 kd, vec3 ks, float rough, vec3 n) {

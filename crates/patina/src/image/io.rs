@@ -412,30 +412,26 @@ pub fn save_gif(frames: &[&Image], path: impl AsRef<Path>, delay_ms: u32) -> Res
     if w > usize::from(u16::MAX) || h > usize::from(u16::MAX) {
         return Err(Error::invalid(format!("a GIF cannot be {w}x{h} (at most 65535 per side)")));
     }
-    let rgba = |f: &Image| -> Vec<u8> {
-        let n = f.channels();
-        let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
-        f.data()
-            .chunks_exact(n)
-            .flat_map(|p| match n {
-                1 => [q(p[0]), q(p[0]), q(p[0]), 255],
-                2 => [q(p[0]), q(p[0]), q(p[0]), q(p[1])],
-                3 => [q(p[0]), q(p[1]), q(p[2]), 255],
-                _ => [q(p[0]), q(p[1]), q(p[2]), q(p[3])],
-            })
-            .collect()
+    let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+    let to_rgba = |p: &[f32]| -> [u8; 4] {
+        match p.len() {
+            1 => [q(p[0]), q(p[0]), q(p[0]), 255],
+            2 => [q(p[0]), q(p[0]), q(p[0]), q(p[1])],
+            3 => [q(p[0]), q(p[1]), q(p[2]), 255],
+            _ => [q(p[0]), q(p[1]), q(p[2]), q(p[3])],
+        }
     };
-    // Train on every step-th opaque pixel of every frame.
+    let rgba = |f: &Image| -> Vec<u8> { f.data().chunks_exact(f.channels()).flat_map(to_rgba).collect() };
+    // Train on every step-th opaque pixel of every frame (converting only those).
     let total = w * h * frames.len();
     let step = total.div_ceil(PALETTE_SAMPLES).max(1);
     let mut training = Vec::with_capacity(4 * total.div_ceil(step));
-    let mut k = 0usize;
-    for f in frames {
-        for p in rgba(f).chunks_exact(4) {
-            if k.is_multiple_of(step) && p[3] >= 128 {
-                training.extend_from_slice(&[p[0], p[1], p[2], 255]);
-            }
-            k += 1;
+    let n = first.channels();
+    for k in (0..total).step_by(step) {
+        let (f, i) = (k / (w * h), k % (w * h));
+        let p = to_rgba(&frames[f].data()[i * n..(i + 1) * n]);
+        if p[3] >= 128 {
+            training.extend_from_slice(&[p[0], p[1], p[2], 255]);
         }
     }
     if training.is_empty() {

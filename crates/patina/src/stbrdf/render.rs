@@ -75,11 +75,12 @@ fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
 }
 
 /// The sky's radiance at the zenith, at the horizon and from the ground
-/// (linear RGB). Its irradiance on a surface facing the horizon is about pi
+/// (linear RGB), nearly neutral: a bluer zenith gave white materials a
+/// visible cyan cast (review). Its irradiance on a surface facing the horizon is about pi
 /// times the mean of sky and ground, so a white wall under it reflects
 /// about 0.9 (the same as under the sun, so the two previews show a material at about the same level).
-const SKY_ZENITH: [f32; 3] = [0.95, 1.25, 1.8];
-const SKY_HORIZON: [f32; 3] = [2.1, 2.0, 1.9];
+const SKY_ZENITH: [f32; 3] = [1.25, 1.35, 1.55];
+const SKY_HORIZON: [f32; 3] = [2.05, 2.0, 1.95];
 const SKY_GROUND: [f32; 3] = [0.55, 0.5, 0.45];
 /// Screen up, the sky's zenith.
 const UP: [f32; 3] = [0.0, 1.0, 0.0];
