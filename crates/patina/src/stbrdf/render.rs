@@ -26,6 +26,7 @@
 //! facing it reflects 1.
 
 use super::material::{Encoding, Material};
+use super::poly::evaluate;
 use crate::image::color::{linear_to_srgb, srgb_to_linear};
 use crate::image::resample::pyr_down;
 use crate::image::Image;
@@ -274,15 +275,25 @@ const DEFAULT_ROUGHNESS: f32 = 0.8;
 /// the slope, so with green pointing up the image (OpenGL) n_y follows
 /// +dh/drow (rows run down) and with green pointing down it follows
 /// -dh/drow. Without a Height, OpenGL is assumed.
-pub(crate) fn normal_green_points_down(material: &Material, c: usize) -> bool {
+fn normal_green_points_down(material: &Material, c: usize) -> bool {
     let Some(height) = material.param("height") else { return false };
-    let frame = material.evaluate(0.5);
-    let (w, h) = frame.size();
+    // Only the two channels compared, evaluated at t = 0.5.
+    let m = material.degree + 1;
+    let (w, h) = material.size();
+    let at = |ch: usize| -> Vec<f32> {
+        material
+            .coefficients
+            .data()
+            .chunks_exact(material.coefficients.channels())
+            .map(|a| evaluate(&a[ch * m..(ch + 1) * m], 0.5))
+            .collect()
+    };
+    let (heights, green) = (at(height.start), at(c + 1));
     let mut corr = 0.0f64;
     for y in 1..h.saturating_sub(1) {
         for x in 0..w {
-            let dh = frame.at(x, y + 1, height.start) - frame.at(x, y - 1, height.start);
-            corr += f64::from(dh * (2.0 * frame.at(x, y, c + 1) - 1.0));
+            let dh = heights[(y + 1) * w + x] - heights[(y - 1) * w + x];
+            corr += f64::from(dh * (2.0 * green[y * w + x] - 1.0));
         }
     }
     corr < 0.0

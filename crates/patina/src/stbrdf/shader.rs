@@ -52,22 +52,30 @@ fn horner(material: &Material, out: &str, sample: impl Fn(&str, usize) -> String
     s
 }
 
+/// One line per parameter and coefficient, in binding order:
+/// `line(n, ident, name, k)` with n counting from 0.
+fn per_texture(material: &Material, line: impl Fn(usize, &str, &str, usize) -> String) -> String {
+    let m = material.degree + 1;
+    let mut s = String::new();
+    for (i, p) in material.params.iter().enumerate() {
+        for k in 0..m {
+            s += &line(i * m + k, &ident(&p.name), &p.name, k);
+        }
+    }
+    s
+}
+
 /// WGSL: bindings in group 0 (a sampler at 0, then the coefficient
 /// textures), a struct with one field per parameter, and
 /// `evaluate_material(uv, t)`.
 pub fn wgsl(material: &Material) -> String {
-    let m = material.degree + 1;
     let mut s = format!(
         "// patina: spatio-temporal material, degree {}, evaluated at t in [0, 1].\n// Textures: {{Name}}-{{i}}.exr, coefficient i of t^i.\n\n@group(0) @binding(0) var material_sampler: sampler;\n",
         material.degree
     );
-    let mut binding = 1;
-    for p in &material.params {
-        for k in 0..m {
-            s += &format!("@group(0) @binding({binding}) var {}_{k}: texture_2d<f32>; // {}-{k}.exr\n", ident(&p.name), p.name);
-            binding += 1;
-        }
-    }
+    s += &per_texture(material, |n, id, name, k| {
+        format!("@group(0) @binding({}) var {id}_{k}: texture_2d<f32>; // {name}-{k}.exr\n", n + 1)
+    });
     s += &structure(
         material,
         |p| if p.channels == 1 { "f32".into() } else { format!("vec{}<f32>", p.channels.min(4)) },
@@ -82,18 +90,11 @@ pub fn wgsl(material: &Material) -> String {
 /// GLSL (450): `layout(binding = n) uniform sampler2D {name}_{i}` per
 /// coefficient (in order from 0), a struct and `evaluateMaterial(uv, t)`.
 pub fn glsl(material: &Material) -> String {
-    let m = material.degree + 1;
     let mut s = format!(
         "// patina: spatio-temporal material, degree {}, evaluated at t in [0, 1].\n// Textures: {{Name}}-{{i}}.exr, coefficient i of t^i.\n#version 450\n\n",
         material.degree
     );
-    let mut binding = 0;
-    for p in &material.params {
-        for k in 0..m {
-            s += &format!("layout(binding = {binding}) uniform sampler2D {}_{k}; // {}-{k}.exr\n", ident(&p.name), p.name);
-            binding += 1;
-        }
-    }
+    s += &per_texture(material, |n, id, name, k| format!("layout(binding = {n}) uniform sampler2D {id}_{k}; // {name}-{k}.exr\n"));
     s += &structure(
         material,
         |p| if p.channels == 1 { "float".into() } else { format!("vec{}", p.channels.min(4)) },
@@ -109,17 +110,11 @@ pub fn glsl(material: &Material) -> String {
 /// `SamplerState sampler_{name}_{i}` (Unity's naming), a struct and
 /// `EvaluateMaterial(uv, t)`.
 pub fn hlsl(material: &Material) -> String {
-    let m = material.degree + 1;
     let mut s = format!(
         "// patina: spatio-temporal material, degree {}, evaluated at t in [0, 1].\n// Textures: {{Name}}-{{i}}.exr, coefficient i of t^i, sampled as linear data.\n\n",
         material.degree
     );
-    for p in &material.params {
-        for k in 0..m {
-            let id = ident(&p.name);
-            s += &format!("Texture2D {id}_{k}; SamplerState sampler_{id}_{k}; // {}-{k}.exr\n", p.name);
-        }
-    }
+    s += &per_texture(material, |_, id, name, k| format!("Texture2D {id}_{k}; SamplerState sampler_{id}_{k}; // {name}-{k}.exr\n"));
     s += &structure(
         material,
         |p| if p.channels == 1 { "float".into() } else { format!("float{}", p.channels.min(4)) },
@@ -137,13 +132,9 @@ pub fn hlsl(material: &Material) -> String {
 /// 1 - Roughness (smoothness) and the tangent-space Normal, those the
 /// material has.
 pub fn shaderlab(material: &Material) -> String {
-    let m = material.degree + 1;
     let mut props = String::from("        _MaterialTime (\"Time t\", Range(0, 1)) = 0\n");
-    for p in &material.params {
-        for k in 0..m {
-            props += &format!("        {}_{k} (\"{}-{k}.exr (linear, no sRGB)\", 2D) = \"black\" {{}}\n", ident(&p.name), p.name);
-        }
-    }
+    props +=
+        &per_texture(material, |_, id, name, k| format!("        {id}_{k} (\"{name}-{k}.exr (linear, no sRGB)\", 2D) = \"black\" {{}}\n"));
     let has = |name: &str| material.param(name).map(|r| r.len());
     let decode =
         |v: &str| if material.encoding == Encoding::Srgb { format!("GammaToLinearSpace(saturate({v}))") } else { format!("saturate({v})") };

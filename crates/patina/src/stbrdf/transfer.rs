@@ -266,41 +266,31 @@ fn grow(material: &Material, target: &Image, mask: Option<&Image>, kd: std::ops:
     // the material (rusting steel's pale background) stays the target's:
     // covering the paint with it washed the object out.
     let sizes: Vec<f32> = coefficients.data().par_chunks(n).map(whole).collect();
-    let inside: Vec<f32> = match mask {
-        Some(mk) => sizes.iter().zip(mk.data()).filter(|(_, w)| **w > 0.5).map(|(v, _)| *v).collect(),
-        None => sizes.clone(),
-    };
+    let inside = on_object(&sizes, mask);
     let top = if inside.is_empty() { 1.0 } else { quantile(&inside, GROW_TOP) };
     let band = ((GROW_BAND.0 * top).max(GROW_MIN_CHANGE.0), (GROW_BAND.1 * top).max(GROW_MIN_CHANGE.1));
-    let cover_of = |a: &[f32]| -> Vec<f32> {
+    // What has arrived stays: the cover only grows away from t0, forwards
+    // from the first sample at or after it and backwards from the one before.
+    let first_after = times.iter().position(|&t| t >= t0).unwrap_or(times.len());
+    let cover_of = |a: &[f32], cover: &mut [f32]| {
         let end = delta(a, end_at);
         let size = end.iter().map(|v| v * v).sum::<f32>();
         let matters = smoothstep(band.0, band.1, size.sqrt());
-        let mut cover: Vec<f32> = times
-            .iter()
-            .map(|&t| {
-                let d = delta(a, t);
-                let progress = if size > 0.0 { (d[0] * end[0] + d[1] * end[1] + d[2] * end[2]) / size } else { 0.0 };
-                matters * smoothstep(GROW_PROGRESS.0, GROW_PROGRESS.1, progress)
-            })
-            .collect();
-        // What has arrived stays: the cover only grows away from t0.
-        let first_after = times.iter().position(|&t| t >= t0).unwrap_or(times.len());
+        for (c, &t) in cover.iter_mut().zip(&times) {
+            let d = delta(a, t);
+            let progress = if size > 0.0 { (d[0] * end[0] + d[1] * end[1] + d[2] * end[2]) / size } else { 0.0 };
+            *c = matters * smoothstep(GROW_PROGRESS.0, GROW_PROGRESS.1, progress);
+        }
         for k in first_after + 1..cover.len() {
             cover[k] = cover[k].max(cover[k - 1]);
         }
-        for k in (0..first_after.min(cover.len())).rev() {
-            let next = if k + 1 < cover.len() { cover[k + 1] } else { 0.0 };
-            cover[k] = cover[k].max(if k + 1 < first_after { next } else { 0.0 });
+        for k in (0..first_after.saturating_sub(1)).rev() {
+            cover[k] = cover[k].max(cover[k + 1]);
         }
-        cover
     };
     // The target's shading, relative to its median luminance (over the object).
     let lum = luminance(&target.select_channels(0..3));
-    let lums: Vec<f32> = match mask {
-        Some(mk) => lum.data().iter().zip(mk.data()).filter(|(_, w)| **w > 0.5).map(|(l, _)| *l).collect(),
-        None => lum.data().to_vec(),
-    };
+    let lums = on_object(lum.data(), mask);
     let median = if lums.is_empty() { 1.0 } else { quantile(&lums, 0.5).max(1e-3) };
     let mut out = Image::new(coefficients.width(), coefficients.height(), channels * mo);
     out.data_mut()
@@ -308,24 +298,34 @@ fn grow(material: &Material, target: &Image, mask: Option<&Image>, kd: std::ops:
         .zip(coefficients.data().par_chunks(n))
         .zip(target.data().par_chunks(target.channels()))
         .zip(lum.data().par_iter())
-        .for_each(|(((o, a), want), &l)| {
-            let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1);
-            let cover = cover_of(a);
-            let mut q = vec![0f32; samples];
-            for c in 0..channels {
-                let poly = &a[c * m..(c + 1) * m];
-                let diffuse = kd.contains(&c);
-                let base = if diffuse { want[c - kd.start] } else { evaluate(poly, t0) };
-                let arrived = if diffuse { shading } else { 1.0 } * evaluate(poly, end_at);
-                for (qk, &ck) in q.iter_mut().zip(&cover) {
-                    *qk = ck * (arrived - base);
+        .for_each_init(
+            || (vec![0f32; samples], vec![0f32; samples]),
+            |(cover, q), (((o, a), want), &l)| {
+                let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1);
+                cover_of(a, cover);
+                for c in 0..channels {
+                    let poly = &a[c * m..(c + 1) * m];
+                    let diffuse = kd.contains(&c);
+                    let base = if diffuse { want[c - kd.start] } else { evaluate(poly, t0) };
+                    let arrived = if diffuse { shading } else { 1.0 } * evaluate(poly, end_at);
+                    for (qk, &ck) in q.iter_mut().zip(cover.iter()) {
+                        *qk = ck * (arrived - base);
+                    }
+                    let dst = &mut o[c * mo..(c + 1) * mo];
+                    fitter.fit_into(q, dst);
+                    dst[0] += base;
                 }
-                let dst = &mut o[c * mo..(c + 1) * mo];
-                fitter.fit_into(&q, dst);
-                dst[0] += base;
-            }
-        });
+            },
+        );
     Ok((out_degree, out))
+}
+
+/// The values of the texels on the object: where the mask is over 0.5, or all.
+fn on_object(values: &[f32], mask: Option<&Image>) -> Vec<f32> {
+    match mask {
+        Some(mk) => values.iter().zip(mk.data()).filter(|(_, w)| **w > 0.5).map(|(v, _)| *v).collect(),
+        None => values.to_vec(),
+    }
 }
 
 fn smoothstep(a: f32, b: f32, x: f32) -> f32 {

@@ -70,6 +70,8 @@ pub fn separate(img: &Image) -> Separation {
 
 /// Degree of [`separate_smooth`]'s polynomial field.
 pub const SMOOTH_DEGREE: usize = 3;
+/// Its number of monomials, (d + 1) (d + 2) / 2.
+const SMOOTH_TERMS: usize = (SMOOTH_DEGREE + 1) * (SMOOTH_DEGREE + 2) / 2;
 
 /// Split `img` into detail and an illumination field that is a cubic
 /// polynomial in x and y, fitted to its log luminance by least squares
@@ -82,17 +84,20 @@ pub fn separate_smooth(img: &Image) -> Separation {
     let lum = luminance(img);
     let (w, h) = lum.size();
     let log_lum: Vec<f32> = lum.data().iter().map(|v| (v.max(0.0) + LOG_FLOOR).ln()).collect();
-    let terms = |x: usize, y: usize| -> Vec<f64> {
+    // The monomials u^i v^(d-i), d = 0..=3, at a pixel (u, v in [-1, 1]).
+    let terms = |x: usize, y: usize| -> [f64; SMOOTH_TERMS] {
         let (u, v) = (2.0 * (x as f64 + 0.5) / w as f64 - 1.0, 2.0 * (y as f64 + 0.5) / h as f64 - 1.0);
-        let mut t = Vec::with_capacity(10);
+        let mut t = [0.0; SMOOTH_TERMS];
+        let mut k = 0;
         for total in 0..=SMOOTH_DEGREE {
             for i in 0..=total {
-                t.push(u.powi(i as i32) * v.powi((total - i) as i32));
+                t[k] = u.powi(i as i32) * v.powi((total - i) as i32);
+                k += 1;
             }
         }
         t
     };
-    let k = terms(0, 0).len();
+    let k = SMOOTH_TERMS;
     // Normal equations over a grid of at most 128 x 128 samples.
     let step = (w.max(h) / 128).max(1);
     let mut ata = nalgebra::DMatrix::<f64>::zeros(k, k);
@@ -122,11 +127,9 @@ pub fn separate_smooth(img: &Image) -> Separation {
 
 /// The separation of `img` (luminance `lum`) by a log field relative to its mean.
 fn with_field(img: &Image, lum: &Image, field: Image, sigma: f32) -> Separation {
-    let mean_luminance = mean(lum);
-    let mut detail = img.clone();
-    let mut sep = Separation { detail: Image::new(1, 1, 1), log_field: field, sigma, mean_luminance };
-    apply_gain(&mut detail, &sep.unlit_gain());
-    sep.detail = detail;
+    let mut sep = Separation { detail: img.clone(), log_field: field, sigma, mean_luminance: mean(lum) };
+    let gain = sep.unlit_gain();
+    apply_gain(&mut sep.detail, &gain);
     sep
 }
 
