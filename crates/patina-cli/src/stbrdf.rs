@@ -154,7 +154,7 @@ pub struct TransferArgs {
     #[arg(long)]
     pub mask: Option<PathBuf>,
     /// Soften the mask's edge inwards over this many pixels (a Gaussian of this sigma, never reaching outside it).
-    #[arg(long, default_value_t = 1.0, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub feather: f32,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
