@@ -4,7 +4,8 @@ use crate::output::{check_outputs, manifest_path, parse_size, write_sequence, Ma
 use crate::progress::with_bar;
 use patina::decay::{self, degree::Diffusion, texture, DecayClass, DecayParams, Inputs, ShadingParams};
 use patina::image::color::{linear_to_srgb, luminance};
-use patina::image::io::{self, save_png, BitDepth};
+use crate::output::{save, save_png};
+use patina::image::io::{self, BitDepth};
 use patina::image::{Image, Mask};
 use patina::{Error, Result};
 use rayon::prelude::*;
@@ -214,9 +215,9 @@ pub fn run_texture(args: TextureArgs) -> Result<()> {
         None => texture::generate(args.class, args.seed, args.offset.0, args.offset.1, w, h)?,
     };
     manifest.timings_ms.insert("generate".into(), clock.lap());
-    io::save(&texture.select_channels(0..3), &args.out, BitDepth::Eight)?;
+    save(&texture.select_channels(0..3), &args.out, BitDepth::Eight)?;
     if let Some(onset) = &args.onset {
-        io::save(&texture.select_channels(3..4), onset, BitDepth::Eight)?;
+        save(&texture.select_channels(3..4), onset, BitDepth::Eight)?;
         manifest.outputs.push(onset.clone());
     }
     manifest.timings_ms.insert("save".into(), clock.lap());

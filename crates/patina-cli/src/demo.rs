@@ -3,7 +3,8 @@
 use crate::output::{mkdir, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
 use clap::Parser;
-use patina::image::io::{save_png, BitDepth};
+use crate::output::save_png;
+use patina::image::io::BitDepth;
 use patina::synth::{OptimizeParams, QuiltParams, Synthesis};
 use patina::{metrics, samples, Error, Result};
 use serde_json::json;

@@ -1,7 +1,7 @@
 //! Output conventions: manifests beside outputs, never writing over an
 //! input, and size parsing shared by the subcommands.
 
-use patina::image::io::{save_gif, save_png, BitDepth};
+use patina::image::io::{self, save_gif, BitDepth};
 use patina::image::Image;
 use patina::{Error, Result};
 use rayon::prelude::*;
@@ -255,6 +255,22 @@ pub fn parse_size(s: &str) -> std::result::Result<(usize, usize), String> {
         return Err(format!("size {w}x{h} is empty: both sides must be at least 1"));
     }
     Ok((w, h))
+}
+
+/// Write an image output as PNG (and hand it to an embedding, see
+/// [`crate::embed`]).
+pub fn save_png(img: &Image, path: impl AsRef<Path>, depth: BitDepth) -> Result<()> {
+    io::save_png(img, path.as_ref(), depth)?;
+    crate::embed::capture(path.as_ref(), img);
+    Ok(())
+}
+
+/// Write an image output as PNG or EXR by its extension (and hand it to an
+/// embedding).
+pub fn save(img: &Image, path: impl AsRef<Path>, depth: BitDepth) -> Result<()> {
+    io::save(img, path.as_ref(), depth)?;
+    crate::embed::capture(path.as_ref(), img);
+    Ok(())
 }
 
 /// Create `dir` (and its parents).

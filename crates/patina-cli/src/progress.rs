@@ -30,10 +30,17 @@ impl Bar {
     }
 }
 
-/// Run `work` with a bar labelled `label`, handing it the progress callback.
+/// Run `work` with a bar labelled `label`, handing it the progress callback
+/// (which also reports to an embedding, see [`crate::embed`]).
 pub fn with_bar<T>(label: &str, work: impl FnOnce(&(dyn Fn(u64, u64) + Sync)) -> T) -> T {
     let bar = Bar::new(label);
-    let out = work(&|done, total| bar.update(done, total));
+    let hook = crate::embed::progress_hook();
+    let out = work(&|done, total| {
+        bar.update(done, total);
+        if let Some(h) = &hook {
+            h(label, done, total);
+        }
+    });
     bar.finish();
     out
 }

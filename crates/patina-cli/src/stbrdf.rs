@@ -4,7 +4,8 @@
 use crate::output::{parse_size, side_by_side, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
 use crate::synth::GuideArgs;
-use patina::image::io::{self, save_gif, save_png, BitDepth};
+use crate::output::save_png;
+use patina::image::io::{self, save_gif, BitDepth};
 use patina::image::sequence::{load_sequence, natural_cmp, MAX_FRAMES};
 use patina::image::Image;
 use patina::stbrdf::{enlarge, fit, render, shader, transfer, Encoding, Material, Param};

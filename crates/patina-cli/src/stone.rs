@@ -2,7 +2,8 @@
 
 use crate::output::{write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
-use patina::image::io::{save_png, BitDepth};
+use crate::output::save_png;
+use patina::image::io::BitDepth;
 use patina::image::{Image, Mask};
 use patina::stone::{self, segment, StoneParams};
 use patina::{Error, Result};

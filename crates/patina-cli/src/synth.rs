@@ -260,7 +260,7 @@ pub fn run(args: Args) -> Result<()> {
         })
     })?;
     manifest.timings_ms.insert("synthesize".into(), clock.lap());
-    io::save(&image, &args.out, depth)?;
+    crate::output::save(&image, &args.out, depth)?;
     manifest.timings_ms.insert("save".into(), clock.lap());
     params["size"] = json!([size.0, size.1]);
     params["guide_weight"] = json!(args.guide.guide_weight);

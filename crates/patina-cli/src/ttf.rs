@@ -3,7 +3,8 @@
 
 use crate::output::{parse_size, side_by_side, write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
-use patina::image::io::{save_gif, save_png, BitDepth};
+use crate::output::save_png;
+use patina::image::io::{save_gif, BitDepth};
 use patina::image::sequence::{load_sequence, Sequence};
 use patina::image::Image;
 use patina::synth::QuiltParams;

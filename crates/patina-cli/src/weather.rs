@@ -4,7 +4,8 @@
 
 use crate::output::{check_outputs, manifest_path, write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
-use patina::image::io::{self, save_png, BitDepth};
+use crate::output::save_png;
+use patina::image::io::{self, BitDepth};
 use patina::image::Image;
 use patina::weather::{self, age_map, intact, layers::Layers, transfer, Overrides, Stage, WeatherParams};
 use patina::{Error, Result};
