@@ -153,7 +153,7 @@ pub fn run(args: Args) -> Result<()> {
     manifest.write(&dir.join("manifest.json"))?;
     out.commit()?;
     let source = if exemplar.is_some() { "the exemplar's decay" } else { args.class.name() };
-    println!("patina decay: {} frames of {source} in {}", frames.len(), args.out.display());
+    crate::output::summary(format!("patina decay: {} frames of {source} in {}", frames.len(), args.out.display()));
     Ok(())
 }
 

@@ -117,6 +117,11 @@ pub(crate) fn progress_hook() -> Option<impl Fn(&str, u64, u64) + Sync> {
     })
 }
 
+/// Whether an embedded run is in progress.
+pub(crate) fn active() -> bool {
+    ACTIVE.read().unwrap_or_else(|p| p.into_inner()).is_some()
+}
+
 /// Hand an image the CLI just wrote to the embedding, if one is running.
 pub(crate) fn capture(path: &Path, image: &Image) {
     let session = ACTIVE.read().unwrap_or_else(|p| p.into_inner()).clone();

@@ -273,6 +273,14 @@ pub fn save(img: &Image, path: impl AsRef<Path>, depth: BitDepth) -> Result<()> 
     Ok(())
 }
 
+/// Print a run's closing summary line on stderr (not in embedded runs,
+/// whose caller gets the manifest instead).
+pub fn summary(line: String) {
+    if !crate::embed::active() {
+        eprintln!("{line}");
+    }
+}
+
 /// Create `dir` (and its parents).
 pub fn mkdir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|source| Error::Write { path: dir.into(), source })

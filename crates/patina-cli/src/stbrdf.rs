@@ -348,7 +348,7 @@ fn run_fit(args: FitArgs) -> Result<()> {
     manifest.inputs = vec![args.input.clone()];
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;
-    eprintln!("patina stbrdf fit: {} time steps -> degree-{} material in {}", n, args.degree, args.out.display());
+    crate::output::summary(format!("patina stbrdf fit: {} time steps -> degree-{} material in {}", n, args.degree, args.out.display()));
     Ok(())
 }
 
@@ -381,7 +381,7 @@ fn run_enlarge(args: EnlargeArgs) -> Result<()> {
     manifest.inputs = std::iter::once(args.material.as_path()).chain(args.guide.paths()).map(Path::to_path_buf).collect();
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;
-    eprintln!("patina stbrdf enlarge: {}x{} -> {}x{} in {}", w, h, size.0, size.1, args.out.display());
+    crate::output::summary(format!("patina stbrdf enlarge: {}x{} -> {}x{} in {}", w, h, size.0, size.1, args.out.display()));
     Ok(())
 }
 
@@ -442,7 +442,7 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;
-    eprintln!("patina stbrdf transfer: wrote {}", args.out.display());
+    crate::output::summary(format!("patina stbrdf transfer: wrote {}", args.out.display()));
     Ok(())
 }
 
@@ -514,6 +514,6 @@ fn run_render(args: RenderArgs) -> Result<()> {
     manifest.inputs = vec![args.material.clone()];
     manifest.write(&dir.join("manifest.json"))?;
     out.commit()?;
-    eprintln!("patina stbrdf render: {} times to {}", times.len(), args.out.display());
+    crate::output::summary(format!("patina stbrdf render: {} times to {}", times.len(), args.out.display()));
     Ok(())
 }

@@ -157,6 +157,6 @@ pub fn run(args: Args) -> Result<()> {
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.write(&dir.join("manifest.json"))?;
     out.commit()?;
-    println!("patina stone: {} frames in {}", frames.len(), args.out.display());
+    crate::output::summary(format!("patina stone: {} frames in {}", frames.len(), args.out.display()));
     Ok(())
 }

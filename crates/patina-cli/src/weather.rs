@@ -224,7 +224,7 @@ pub fn run(args: Args) -> Result<()> {
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.write(&dir.join("manifest.json"))?;
     out.commit()?;
-    eprintln!("patina weather: wrote {} frames to {}", result.frames.len(), args.out.display());
+    crate::output::summary(format!("patina weather: wrote {} frames to {}", result.frames.len(), args.out.display()));
     Ok(())
 }
 
@@ -341,6 +341,6 @@ pub fn run_transfer(args: TransferArgs) -> Result<()> {
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;
-    eprintln!("patina weather-transfer: wrote {} frames to {}", all.len(), args.out.display());
+    crate::output::summary(format!("patina weather-transfer: wrote {} frames to {}", all.len(), args.out.display()));
     Ok(())
 }
