@@ -8,7 +8,7 @@ flags as keyword arguments and the CLI's defaults, and returns a
 
     import numpy as np, patina
 
-    ex = np.asarray(PIL.Image.open("rust.png"))            # uint8 HxWx3
+    ex = patina.to_array("rust.png")                      # or any uint8/uint16/float32 array
     big = patina.synth(ex, size=(512, 512), seed=7)       # or a path: "rust.png"
     big.image.shape                                       # (512, 512, 3) float32
     w = patina.weather("peeling.png", past=3, future=3, seed=1, progress=print)
@@ -69,6 +69,7 @@ __version__ = _native.version()
 
 ImageLike = Union[np.ndarray, str, "os.PathLike[str]"]
 Progress = Callable[[str, int, int], Any]
+PathLike = Union[str, "os.PathLike[str]"]
 
 # Flags whose (a, b) pairs are written WxH, and those written a,b.
 _SIZE_FLAGS = {"size", "block", "overlap"}
@@ -150,51 +151,107 @@ def help(command: str = "") -> str:  # noqa: A001 - mirrors `patina help`
 # Jobs
 
 
-def synth(exemplar: ImageLike, *, out: Optional[Union[str, os.PathLike]] = None, threads: Optional[int] = None,
-          progress: Optional[Progress] = None, **flags: Any) -> Result:
+def synth(
+    exemplar: ImageLike,
+    *,
+    out: Optional[PathLike] = None,
+    threads: Optional[int] = None,
+    progress: Optional[Progress] = None,
+    **flags: Any,
+) -> Result:
     """Synthesize a texture from an exemplar (``patina synth``): ``.image``."""
     return _job(["synth"], [exemplar], flags, out, "synth.png", threads, progress)
 
 
-def weather(texture: ImageLike, *, out=None, threads=None, progress=None, **flags: Any) -> WeatherResult:
+def weather(
+    texture: ImageLike,
+    *,
+    out: Optional[PathLike] = None,
+    threads: Optional[int] = None,
+    progress: Optional[Progress] = None,
+    **flags: Any,
+) -> WeatherResult:
     """Age a weathered texture forwards and backwards in time (``patina weather``): ``.age_map``, ``.intact``, ``.frames``."""
     return _job(["weather"], [texture], flags, out, None, threads, progress, WeatherResult)
 
 
-def age_map(texture: ImageLike, *, out=None, threads=None, progress=None, **flags: Any) -> Result:
+def age_map(
+    texture: ImageLike,
+    *,
+    out: Optional[PathLike] = None,
+    threads: Optional[int] = None,
+    progress: Optional[Progress] = None,
+    **flags: Any,
+) -> Result:
     """The age map of a weathered texture, white = weathered (``patina age-map``): ``.image``."""
     return _job(["age-map"], [texture], flags, out, "age_map.png", threads, progress)
 
 
-def intact(texture: ImageLike, *, out=None, threads=None, progress=None, **flags: Any) -> Result:
+def intact(
+    texture: ImageLike,
+    *,
+    out: Optional[PathLike] = None,
+    threads: Optional[int] = None,
+    progress: Optional[Progress] = None,
+    **flags: Any,
+) -> Result:
     """The intact (un-weathered) texture (``patina intact``): ``.image``."""
     return _job(["intact"], [texture], flags, out, "intact.png", threads, progress)
 
 
-def weather_transfer(source: ImageLike, target: ImageLike, *, out=None, threads=None, progress=None,
-                     **flags: Any) -> Result:
+def weather_transfer(
+    source: ImageLike,
+    target: ImageLike,
+    *,
+    out: Optional[PathLike] = None,
+    threads: Optional[int] = None,
+    progress: Optional[Progress] = None,
+    **flags: Any,
+) -> Result:
     """Carry ``source``'s weathering onto ``target`` (``patina weather-transfer``): ``.frames``."""
     flags = dict(flags, source=source, target=target)
     return _job(["weather-transfer"], [], flags, out, None, threads, progress)
 
 
-def ttf(sequence: Union[Sequence[ImageLike], str, "os.PathLike[str]"], *, out=None, threads=None, progress=None,
-        **flags: Any) -> Result:
+def ttf(
+    sequence: Union[Sequence[ImageLike], str, "os.PathLike[str]"],
+    *,
+    out: Optional[PathLike] = None,
+    threads: Optional[int] = None,
+    progress: Optional[Progress] = None,
+    **flags: Any,
+) -> Result:
     """Synthesize a larger time-lapse (``patina ttf``) from a list of frames, a folder of frames or a GIF: ``.frames``."""
     return _job(["ttf"], [_Frames(sequence)], flags, out, None, threads, progress)
 
 
-def stone(photo: ImageLike, *, out=None, threads=None, progress=None, **flags: Any) -> Result:
+def stone(
+    photo: ImageLike,
+    *,
+    out: Optional[PathLike] = None,
+    threads: Optional[int] = None,
+    progress: Optional[Progress] = None,
+    **flags: Any,
+) -> Result:
     """Weather the stone in a photo (``patina stone``): ``.frames`` (and ``.images``: tendency, segments)."""
     return _job(["stone"], [photo], flags, out, None, threads, progress)
 
 
-def decay(photo: ImageLike, *, out=None, threads=None, progress=None, **flags: Any) -> Result:
+def decay(
+    photo: ImageLike,
+    *,
+    out: Optional[PathLike] = None,
+    threads: Optional[int] = None,
+    progress: Optional[Progress] = None,
+    **flags: Any,
+) -> Result:
     """Make an object in a photo decay over time (``patina decay``): ``.frames``."""
     return _job(["decay"], [photo], flags, out, None, threads, progress)
 
 
-def decay_texture(*, out=None, threads=None, progress=None, **flags: Any) -> Result:
+def decay_texture(
+    *, out: Optional[PathLike] = None, threads: Optional[int] = None, progress: Optional[Progress] = None, **flags: Any
+) -> Result:
     """A decay texture of any size, procedural or from ``exemplar=`` (``patina decay-texture``): ``.image``."""
     return _job(["decay-texture"], [], flags, out, "texture.png", threads, progress)
 
@@ -203,25 +260,51 @@ class _Stbrdf:
     """Spatio-temporal BRDF materials (``patina stbrdf``). Materials are folders."""
 
     @staticmethod
-    def fit(capture: Union[Sequence[ImageLike], str, "os.PathLike[str]"], *, out, threads=None, progress=None,
-            **flags: Any) -> Result:
+    def fit(
+        capture: Union[Sequence[ImageLike], str, "os.PathLike[str]"],
+        *,
+        out: PathLike,
+        threads: Optional[int] = None,
+        progress: Optional[Progress] = None,
+        **flags: Any,
+    ) -> Result:
         """Fit a material to a time-lapse capture (frames or a folder) into the folder ``out``."""
         return _job(["stbrdf", "fit"], [_Frames(capture)], flags, out, None, threads, progress)
 
     @staticmethod
-    def enlarge(material: Union[str, "os.PathLike[str]"], *, out, threads=None, progress=None, **flags: Any) -> Result:
+    def enlarge(
+        material: Union[str, "os.PathLike[str]"],
+        *,
+        out: PathLike,
+        threads: Optional[int] = None,
+        progress: Optional[Progress] = None,
+        **flags: Any,
+    ) -> Result:
         """Enlarge a material folder into the folder ``out``."""
         return _job(["stbrdf", "enlarge"], [material], flags, out, None, threads, progress)
 
     @staticmethod
-    def transfer(material: Union[str, "os.PathLike[str]"], target: ImageLike, *, out, threads=None, progress=None,
-                 **flags: Any) -> Result:
+    def transfer(
+        material: Union[str, "os.PathLike[str]"],
+        target: ImageLike,
+        *,
+        out: PathLike,
+        threads: Optional[int] = None,
+        progress: Optional[Progress] = None,
+        **flags: Any,
+    ) -> Result:
         """Carry a material's change over time onto a photo, into the folder ``out``."""
         return _job(["stbrdf", "transfer"], [material, target], flags, out, None, threads, progress)
 
     @staticmethod
-    def render(material: Union[str, "os.PathLike[str]"], *, out=None, threads=None, progress=None,
-               **flags: Any) -> Result:
+    def render(
+        material: Union[str, "os.PathLike[str]"],
+        *,
+        out: Optional[PathLike] = None,
+        threads: Optional[int] = None,
+        progress: Optional[Progress] = None,
+        **flags: Any,
+    ) -> Result:
         """Render a material's previews over time: ``.frames`` and ``.images`` (maps, plane, sphere)."""
         return _job(["stbrdf", "render"], [material], flags, out, None, threads, progress)
 
@@ -322,8 +405,16 @@ def _number(v: Any) -> str:
     return repr(float(v)) if isinstance(v, float) else str(v)
 
 
-def _job(command: List[str], positional: List[Any], flags: Dict[str, Any], out, default_name: Optional[str],
-         threads: Optional[int], progress: Optional[Progress], kind=Result):
+def _job(
+    command: List[str],
+    positional: List[Any],
+    flags: Dict[str, Any],
+    out,
+    default_name: Optional[str],
+    threads: Optional[int],
+    progress: Optional[Progress],
+    kind=Result,
+):
     scratch = tempfile.mkdtemp(prefix="patina-")
     try:
         inputs = _Inputs(scratch)
@@ -354,3 +445,28 @@ def _job(command: List[str], positional: List[Any], flags: Dict[str, Any], out, 
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
 
+
+def _with_flag_reference(function: Callable[..., Any], command: str) -> None:
+    """Append the CLI's flag reference (every flag with its default) to a job's docstring."""
+    function.__doc__ = (
+        f"{function.__doc__}\n\nKeyword arguments are the flags of `patina {command}` (foo_bar=... is --foo-bar ...):\n\n"
+        + _native.help(command.split())
+    )
+
+
+for _function, _command in [
+    (synth, "synth"),
+    (weather, "weather"),
+    (age_map, "age-map"),
+    (intact, "intact"),
+    (weather_transfer, "weather-transfer"),
+    (ttf, "ttf"),
+    (stone, "stone"),
+    (decay, "decay"),
+    (decay_texture, "decay-texture"),
+    (_Stbrdf.fit, "stbrdf fit"),
+    (_Stbrdf.enlarge, "stbrdf enlarge"),
+    (_Stbrdf.transfer, "stbrdf transfer"),
+    (_Stbrdf.render, "stbrdf render"),
+]:
+    _with_flag_reference(_function, _command)

@@ -109,9 +109,20 @@ def _write_json_atomic(path: Path, value: Any) -> None:
     os.replace(tmp, path)
 
 
-def run_batch(job: str, in_dir: Path, out_dir: Path, flags: Sequence[str] = (), *, engine: str = "local",
-              workers: int = 1, threads: Optional[int] = None, seed: int = 0, address: Optional[str] = None,
-              force: bool = False, log=None) -> Dict[str, Any]:
+def run_batch(
+    job: str,
+    in_dir: Path,
+    out_dir: Path,
+    flags: Sequence[str] = (),
+    *,
+    engine: str = "local",
+    workers: int = 1,
+    threads: Optional[int] = None,
+    seed: int = 0,
+    address: Optional[str] = None,
+    force: bool = False,
+    log=None,
+) -> Dict[str, Any]:
     """Run ``job`` on every image in ``in_dir``; returns (and writes) the batch.json summary."""
     if job not in JOBS:
         raise ValueError(f"unknown batch job '{job}' (one of {', '.join(JOBS)})")
@@ -136,8 +147,14 @@ def run_batch(job: str, in_dir: Path, out_dir: Path, flags: Sequence[str] = (), 
         folder = out_dir / name
         s = derive_seed(seed, source.name)
         output = folder / FILE_OUTPUT[job] if job in FILE_OUTPUT else folder
-        entry = {"input": source.name, "seed": s, "output": str(output.relative_to(out_dir)),
-                 "status": "skipped", "error": None, "seconds": 0.0}
+        entry = {
+            "input": source.name,
+            "seed": s,
+            "output": str(output.relative_to(out_dir)),
+            "status": "skipped",
+            "error": None,
+            "seconds": 0.0,
+        }
         entries.append(entry)
         if not force and complete(job, folder):
             continue
@@ -212,26 +229,50 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser.add_argument("job", choices=JOBS, help="the job to run on every input")
     parser.add_argument("in_dir", type=Path, help="folder of input images (PNG, JPEG, EXR)")
     parser.add_argument("out_dir", type=Path, help="output folder (created if missing)")
-    parser.add_argument("--engine", choices=("local", "ray"), default="local",
-                        help="run tasks in this process / a local process pool, or on Ray (default: local)")
-    parser.add_argument("--workers", type=int, default=1,
-                        help="tasks run at once (default: 1; each then gets CPUs / workers threads)")
-    parser.add_argument("--threads", type=int, default=None,
-                        help="worker threads (and Ray CPUs) per task (default: CPUs / --workers)")
-    parser.add_argument("--seed", type=int, default=0, help="batch seed; each input's seed derives from it and its name (default: 0)")
-    parser.add_argument("--address", default=None,
-                        help="Ray cluster to connect to, as ray.init(address=...); 'auto' for the local node's (default: start one)")
+    parser.add_argument(
+        "--engine",
+        choices=("local", "ray"),
+        default="local",
+        help="run tasks in this process / a local process pool, or on Ray (default: local)",
+    )
+    parser.add_argument(
+        "--workers", type=int, default=1, help="tasks run at once (default: 1; each then gets CPUs / workers threads)"
+    )
+    parser.add_argument(
+        "--threads", type=int, default=None, help="worker threads (and Ray CPUs) per task (default: CPUs / --workers)"
+    )
+    parser.add_argument(
+        "--seed", type=int, default=0, help="batch seed; each input's seed derives from it and its name (default: 0)"
+    )
+    parser.add_argument(
+        "--address",
+        default=None,
+        help="Ray cluster to connect to, as ray.init(address=...); 'auto' for the local node's (default: start one)",
+    )
     parser.add_argument("--force", action="store_true", help="re-run inputs whose output is already complete")
     args, flags = parser.parse_known_args(argv)
     try:
-        summary = run_batch(args.job, args.in_dir, args.out_dir, flags, engine=args.engine, workers=args.workers,
-                            threads=args.threads, seed=args.seed, address=args.address, force=args.force)
+        summary = run_batch(
+            args.job,
+            args.in_dir,
+            args.out_dir,
+            flags,
+            engine=args.engine,
+            workers=args.workers,
+            threads=args.threads,
+            seed=args.seed,
+            address=args.address,
+            force=args.force,
+        )
     except ValueError as e:
         print(f"patina batch: {e}", file=sys.stderr)
         return 2
     c = summary["counts"]
-    print(f"patina batch: {c['ok']} ok, {c['failed']} failed, {c['skipped']} skipped in {summary['seconds']:.1f} s "
-          f"-> {args.out_dir / 'batch.json'}", file=sys.stderr)
+    print(
+        f"patina batch: {c['ok']} ok, {c['failed']} failed, {c['skipped']} skipped in {summary['seconds']:.1f} s "
+        f"-> {args.out_dir / 'batch.json'}",
+        file=sys.stderr,
+    )
     return 1 if c["failed"] else 0
 
 

@@ -22,7 +22,10 @@ def _cli_path() -> Path:
         pytest.skip("no cargo to build the patina CLI, and PATINA_BIN is not set")
     out = subprocess.run(
         [cargo, "build", "--profile", "test", "-p", "patina-cli", "--bin", "patina", "--message-format=json"],
-        cwd=REPO, check=True, capture_output=True, text=True,
+        cwd=REPO,
+        check=True,
+        capture_output=True,
+        text=True,
     ).stdout
     for line in out.splitlines():
         msg = json.loads(line)
@@ -63,7 +66,9 @@ def rusted(h=64, w=64, seed=0) -> np.ndarray:
     """Bricks with rust-coloured blotches over a known part: a weathered texture for the weathering jobs."""
     clean = bricks(h, w, seed).astype(np.float32) / 255
     y, x = np.mgrid[0:h, 0:w]
-    blot = ((x - w * 0.3) ** 2 + (y - h * 0.4) ** 2 < (0.18 * w) ** 2) | ((x - w * 0.75) ** 2 + (y - h * 0.7) ** 2 < (0.12 * w) ** 2)
+    blot = ((x - w * 0.3) ** 2 + (y - h * 0.4) ** 2 < (0.18 * w) ** 2) | (
+        (x - w * 0.75) ** 2 + (y - h * 0.7) ** 2 < (0.12 * w) ** 2
+    )
     rust = np.array([0.45, 0.2, 0.08], np.float32)
     out = np.where(blot[..., None], 0.3 * clean + 0.7 * rust, clean)
     return (out * 255).round().astype(np.uint8)

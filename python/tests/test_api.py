@@ -43,7 +43,9 @@ def test_synth_matches_the_cli_pixel_for_pixel(cli, write_png, tmp_path):
 def test_quilt_method_and_flags_pass_through(cli, write_png, tmp_path):
     ex = bricks(64, 64, seed=2)
     path = write_png(ex, "ex.png")
-    cli("synth", path, "-o", tmp_path / "q.png", "--size", "100x90", "--method", "quilt", "--block", "24", "--seed", "3")
+    cli(
+        "synth", path, "-o", tmp_path / "q.png", "--size", "100x90", "--method", "quilt", "--block", "24", "--seed", "3"
+    )
     r = patina.synth(path, size=(100, 90), method="quilt", block=24, seed=3)
     assert_same_8bit(r.image, patina.to_array(tmp_path / "q.png"), "quilt")
     assert r.manifest["params"]["method"] == "quilt"
@@ -109,7 +111,9 @@ def test_bad_input_raises_value_error_with_the_cli_message(cli, tmp_path, write_
     corrupt.write_bytes(b"\x89PNG\r\n\x1a\nnot really")
     with pytest.raises(ValueError) as e:
         patina.synth(corrupt)
-    assert e.value.args[0] == cli("synth", corrupt, "-o", tmp_path / "x.png", check=False).stderr.strip().removeprefix("patina: ")
+    assert e.value.args[0] == cli("synth", corrupt, "-o", tmp_path / "x.png", check=False).stderr.strip().removeprefix(
+        "patina: "
+    )
     with pytest.raises(ValueError, match="--no-such-flag"):
         patina.synth(bricks(32, 32), no_such_flag=3)
     with pytest.raises(ValueError, match="patch"):
@@ -195,7 +199,9 @@ def test_every_job_has_a_function_returning_its_manifest(tmp_path, write_png):
     tx = patina.decay_texture(size=(64, 48), seed=1)
     assert tx.image.shape == (48, 64, 3) and tx.manifest["command"] == "decay-texture"
     material = tmp_path / "material"
-    fitted = patina.stbrdf.fit([np.clip(bricks(32, 32).astype(np.float32) / 255 * (1 - 0.2 * k), 0, 1) for k in range(4)], out=material)
+    fitted = patina.stbrdf.fit(
+        [np.clip(bricks(32, 32).astype(np.float32) / 255 * (1 - 0.2 * k), 0, 1) for k in range(4)], out=material
+    )
     assert fitted.manifest["command"].startswith("stbrdf")
     big = patina.stbrdf.enlarge(material, out=tmp_path / "big", size=(48, 48))
     assert (tmp_path / "big" / "material.json").is_file() and big.out == tmp_path / "big"

@@ -21,8 +21,11 @@ def textures(tmp_path, write_png):
 
 def outputs(folder):
     """Every file under a batch output folder except batch.json and the manifests (which hold timings)."""
-    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
-            if p.is_file() and p.name != "batch.json" and not p.name.endswith("manifest.json")}
+    return {
+        p.relative_to(folder).as_posix(): p.read_bytes()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file() and p.name != "batch.json" and not p.name.endswith("manifest.json")
+    }
 
 
 def test_local_batch_runs_every_input_reports_failures_and_resumes(tmp_path, textures):
@@ -58,14 +61,20 @@ def test_folder_jobs_and_the_command_line(tmp_path, write_png):
     for k in range(2):
         (folder / f"w{k}.png").write_bytes(write_png(rusted(48, 48, seed=k), f"w{k}.png").read_bytes())
     out = tmp_path / "out"
-    p = subprocess.run([sys.executable, "-m", "patina.batch", "weather", str(folder), str(out), "--past", "1", "--future", "1"],
-                       capture_output=True, text=True)
+    p = subprocess.run(
+        [sys.executable, "-m", "patina.batch", "weather", str(folder), str(out), "--past", "1", "--future", "1"],
+        capture_output=True,
+        text=True,
+    )
     assert p.returncode == 0, p.stderr
     for k in range(2):
         manifest = json.loads((out / f"w{k}" / "manifest.json").read_text())
         assert len(manifest["frames"]) == 4 and (out / f"w{k}" / "age_map.png").is_file()
-    bad = subprocess.run([sys.executable, "-m", "patina.batch", "weather", str(tmp_path / "nowhere"), str(out)],
-                         capture_output=True, text=True)
+    bad = subprocess.run(
+        [sys.executable, "-m", "patina.batch", "weather", str(tmp_path / "nowhere"), str(out)],
+        capture_output=True,
+        text=True,
+    )
     assert bad.returncode == 2 and "does not exist" in bad.stderr
 
 
