@@ -20,6 +20,9 @@ def write_image(path: str, data: bytes, height: int, width: int, channels: int, 
 def read_image(path: str) -> Tuple[int, int, int, bytearray]:
     """Read an image file the CLI's way: (height, width, channels, little-endian float32 samples)."""
 
+def write_gif(frames: List[str], path: str, delay_ms: int) -> None:
+    """Write an animated GIF of image files in order, one palette for all frames, as the CLI's previews."""
+
 def help(args: List[str]) -> str:
     """The CLI's --help text for a command line (e.g. ["synth"])."""
 

@@ -2,6 +2,8 @@
 
     python -m patina.batch JOB IN_DIR OUT_DIR [job flags] [--engine local|ray] [--workers N]
 
+    python -m patina.batch ttf SEQUENCE OUT_DIR --chunks N [ttf flags] [--engine local|ray] [--workers N]
+
 JOB is ``synth``, ``weather``, ``decay-texture`` or ``stone``. Every image in
 IN_DIR (PNG, JPEG, EXR; sorted by name) gets its own output folder
 ``OUT_DIR/<name>/``, and ``OUT_DIR/batch.json`` records, per input, its
@@ -15,6 +17,13 @@ Job flags are the CLI's (``patina help JOB``), e.g. ``--size 1024x1024``.
   any failed).
 - **Resume**: re-running skips inputs whose output manifest is complete
   (every output it lists exists); ``--force`` re-runs them.
+- **Long time-lapses** (``ttf``): one sequence (a folder of frames or a
+  GIF) is split into ``--chunks`` parts of its output frames, one task each
+  (the CLI's ``--chunk K/N``), merged into ``OUT_DIR/frames/``,
+  ``manifest.json`` and ``sequence.gif``; the chunk folders stay in
+  ``OUT_DIR/chunks/``. Every chunk computes the whole run's layout, so the
+  merged frames are byte-identical to one ``patina ttf`` run with the same
+  ``--seed`` and need no overlap or blending.
 - **Ray**: ``--engine ray`` sends each task file paths (never images), so
   IN_DIR and OUT_DIR must be on storage every node sees. Each task declares
   ``--threads`` CPUs (default: the cluster's CPUs / ``--workers``).
@@ -36,6 +45,8 @@ from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence
 
 JOBS = ("synth", "weather", "decay-texture", "stone")
+# Jobs on one long sequence, split into chunks of output frames.
+CHUNKED_JOBS = ("ttf",)
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".exr"}
 # Jobs writing one file (into the input's folder) rather than a whole folder.
 FILE_OUTPUT = {"synth": "synth.png", "decay-texture": "texture.png"}
@@ -126,20 +137,13 @@ def run_batch(
     """Run ``job`` on every image in ``in_dir``; returns (and writes) the batch.json summary."""
     if job not in JOBS:
         raise ValueError(f"unknown batch job '{job}' (one of {', '.join(JOBS)})")
-    if engine not in ("local", "ray"):
-        raise ValueError(f"unknown engine '{engine}' (local or ray)")
-    if workers < 1:
-        raise ValueError("--workers must be at least 1")
-    if threads is not None and threads < 1:
-        raise ValueError("--threads must be at least 1")
-    if any(f == "--seed" or f.startswith("--seed=") for f in flags):
-        raise ValueError("give the batch's --seed before the job flags; each input's seed is derived from it")
+    _check_engine(engine, workers, threads, flags)
     in_dir, out_dir = Path(in_dir).resolve(), Path(out_dir).resolve()
     inputs = list_inputs(in_dir)
     if out_dir == in_dir or in_dir in out_dir.parents:
         raise ValueError(f"output folder {out_dir} must not be inside the input folder {in_dir}")
     out_dir.mkdir(parents=True, exist_ok=True)
-    log = log or (lambda msg: print(msg, file=sys.stderr))
+    log = log or _stderr
 
     entries: List[Dict[str, Any]] = []
     todo = []
@@ -164,48 +168,156 @@ def run_batch(
         todo.append((entry, words, str(folder)))
 
     start = time.perf_counter()
-    if engine == "local":
-        cpus = os.cpu_count() or 1
-        per_task = threads or max(1, cpus // workers)
-        if workers == 1:
-            results = []
-            for entry, words, folder in todo:
-                log(f"patina batch: {job} {entry['input']}")
-                results.append(run_task(words, folder, job in FILE_OUTPUT, threads))
-        else:
-            with ProcessPoolExecutor(max_workers=workers) as pool:
-                futures = [pool.submit(run_task, w, f, job in FILE_OUTPUT, per_task) for _, w, f in todo]
-                results = [f.result() for f in futures]
+    _run_tasks(todo, job, engine, workers, threads, address, log)
+    summary = _summary(job, engine, workers, seed, flags, str(in_dir), entries, start)
+    _write_json_atomic(out_dir / "batch.json", summary)
+    return summary
+
+
+def run_chunks(
+    job: str,
+    sequence: Path,
+    out_dir: Path,
+    chunks: int,
+    flags: Sequence[str] = (),
+    *,
+    engine: str = "local",
+    workers: int = 1,
+    threads: Optional[int] = None,
+    seed: int = 0,
+    address: Optional[str] = None,
+    force: bool = False,
+    gif_delay_ms: int = 80,
+    log=None,
+) -> Dict[str, Any]:
+    """Run ``job`` on one sequence as ``chunks`` tasks and merge them; returns (and writes) batch.json."""
+    if job not in CHUNKED_JOBS:
+        raise ValueError(f"'{job}' cannot be chunked (only {', '.join(CHUNKED_JOBS)})")
+    if chunks < 1:
+        raise ValueError("--chunks must be at least 1")
+    _check_engine(engine, workers, threads, flags)
+    if any(f == "--chunk" or f.startswith("--chunk=") for f in flags):
+        raise ValueError("give --chunks to the batch, not --chunk: the batch assigns each task its chunk")
+    sequence, out_dir = Path(sequence).resolve(), Path(out_dir).resolve()
+    if not sequence.exists():
+        raise ValueError(f"sequence {sequence} does not exist")
+    if out_dir == sequence or sequence in out_dir.parents:
+        raise ValueError(f"output folder {out_dir} must not be inside the sequence {sequence}")
+    (out_dir / "chunks").mkdir(parents=True, exist_ok=True)
+    log = log or _stderr
+
+    entries: List[Dict[str, Any]] = []
+    todo = []
+    for k in range(1, chunks + 1):
+        folder = out_dir / "chunks" / f"{k:0{len(str(chunks))}d}"
+        entry = {
+            "input": f"{sequence.name} chunk {k}/{chunks}",
+            "seed": seed,
+            "output": str(folder.relative_to(out_dir)),
+            "status": "skipped",
+            "error": None,
+            "seconds": 0.0,
+        }
+        entries.append(entry)
+        if not force and complete(job, folder):
+            continue
+        # Every chunk gets the batch's seed itself: chunks must share the run's layout.
+        words = [job, str(sequence), "-o", str(folder), "--seed", str(seed), "--chunk", f"{k}/{chunks}", *flags]
+        if folder.exists():
+            words.append("--overwrite")
+        todo.append((entry, words, str(folder)))
+
+    start = time.perf_counter()
+    _run_tasks(todo, job, engine, workers, threads, address, log)
+    summary = _summary(job, engine, workers, seed, flags, str(sequence), entries, start)
+    summary["chunks"] = chunks
+    if summary["counts"]["failed"] == 0:
+        summary["merged"] = _merge_chunks(out_dir, [out_dir / e["output"] for e in entries], gif_delay_ms)
+    _write_json_atomic(out_dir / "batch.json", summary)
+    return summary
+
+
+def _merge_chunks(out_dir: Path, folders: List[Path], gif_delay_ms: int) -> Dict[str, Any]:
+    """The chunks' frames together in OUT_DIR/frames, with a manifest and a GIF of the whole."""
+    from patina import _native
+
+    manifests = [json.loads((f / "manifest.json").read_text(encoding="utf-8")) for f in folders]
+    (out_dir / "frames").mkdir(exist_ok=True)
+    frames = []
+    for folder, manifest in zip(folders, manifests):
+        for entry in manifest["frames"]:
+            target = out_dir / entry["path"]
+            tmp = target.with_name(f".{target.name}.tmp-{os.getpid()}")
+            tmp.write_bytes((folder / entry["path"]).read_bytes())
+            os.replace(tmp, target)
+            frames.append(entry)
+    frames.sort(key=lambda e: e["t"])
+    merged = dict(manifests[0])
+    merged["frames"] = frames
+    merged["outputs"] = ["sequence.gif"]
+    merged["params"] = dict(merged["params"], chunk={"merged_from": len(folders)})
+    # Per-chunk measurements do not describe the whole.
+    merged["metrics"] = {k: v for k, v in merged["metrics"].items() if not k.startswith("flicker")}
+    merged["timings_ms"] = {"chunks_total": sum(sum(m["timings_ms"].values()) for m in manifests)}
+    _native.write_gif([str(out_dir / e["path"]) for e in frames], str(out_dir / "sequence.gif"), gif_delay_ms)
+    _write_json_atomic(out_dir / "manifest.json", merged)
+    return {"frames": len(frames), "manifest": "manifest.json", "gif": "sequence.gif"}
+
+
+def _stderr(message: str) -> None:
+    print(message, file=sys.stderr)
+
+
+def _check_engine(engine: str, workers: int, threads: Optional[int], flags: Sequence[str]) -> None:
+    if engine not in ("local", "ray"):
+        raise ValueError(f"unknown engine '{engine}' (local or ray)")
+    if workers < 1:
+        raise ValueError("--workers must be at least 1")
+    if threads is not None and threads < 1:
+        raise ValueError("--threads must be at least 1")
+    if any(f == "--seed" or f.startswith("--seed=") for f in flags):
+        raise ValueError("give the batch's --seed, not the job's: each task's seed is derived from it")
+
+
+def _run_tasks(todo, job: str, engine: str, workers: int, threads: Optional[int], address: Optional[str], log):
+    """Run the (entry, words, folder) tasks, recording each result in its entry."""
+    file_output = job in FILE_OUTPUT
+    if engine == "ray":
+        results = _run_on_ray(todo, file_output, workers, threads, address, log)
+    elif workers == 1:
+        results = []
+        for entry, words, folder in todo:
+            log(f"patina batch: {job} {entry['input']}")
+            results.append(run_task(words, folder, file_output, threads))
     else:
-        results = _run_on_ray(todo, job, workers, threads, address, log)
+        per_task = threads or max(1, (os.cpu_count() or 1) // workers)
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = [pool.submit(run_task, w, f, file_output, per_task) for _, w, f in todo]
+            results = [f.result() for f in futures]
     for (entry, _, _), result in zip(todo, results):
         entry.update(result)
         if result["status"] == "failed":
             log(f"patina batch: {entry['input']} failed: {result['error']}")
 
-    summary = {
-        "tool": {"name": "patina", "version": _version()},
+
+def _summary(job, engine, workers, seed, flags, source: str, entries, start: float) -> Dict[str, Any]:
+    from patina import _native
+
+    return {
+        "tool": {"name": "patina", "version": _native.version()},
         "job": job,
         "engine": engine,
         "workers": workers,
         "seed": seed,
         "flags": list(flags),
-        "input_dir": str(in_dir),
+        "input": source,
         "counts": {k: sum(e["status"] == k for e in entries) for k in ("ok", "failed", "skipped")},
         "seconds": time.perf_counter() - start,
         "inputs": entries,
     }
-    _write_json_atomic(out_dir / "batch.json", summary)
-    return summary
 
 
-def _version() -> str:
-    from patina import _native
-
-    return _native.version()
-
-
-def _run_on_ray(todo, job: str, workers: int, threads: Optional[int], address: Optional[str], log):
+def _run_on_ray(todo, file_output: bool, workers: int, threads: Optional[int], address: Optional[str], log):
     try:
         import ray
     except ImportError as e:
@@ -216,24 +328,24 @@ def _run_on_ray(todo, job: str, workers: int, threads: Optional[int], address: O
     per_task = threads or max(1, cpus // workers)
     task = ray.remote(num_cpus=per_task)(run_task)
     log(f"patina batch: {len(todo)} tasks on Ray, {per_task} CPUs each ({cpus} in the cluster)")
-    refs = [task.remote(words, folder, job in FILE_OUTPUT, per_task) for _, words, folder in todo]
-    return ray.get(refs)
+    return ray.get([task.remote(words, folder, file_output, per_task) for _, words, folder in todo])
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m patina.batch",
-        description="Run one patina job per image in IN_DIR, writing OUT_DIR/<name>/ and OUT_DIR/batch.json. "
-        "Flags not listed here are the job's own CLI flags (see `patina JOB --help`).",
+        description="Run one patina job per image in IN_DIR, writing OUT_DIR/<name>/ and OUT_DIR/batch.json; "
+        "or (ttf) one sequence in --chunks tasks. Flags not listed here are the job's own CLI flags "
+        "(see `patina JOB --help`).",
     )
-    parser.add_argument("job", choices=JOBS, help="the job to run on every input")
-    parser.add_argument("in_dir", type=Path, help="folder of input images (PNG, JPEG, EXR)")
+    parser.add_argument("job", choices=JOBS + CHUNKED_JOBS, help="the job (ttf: one sequence, in --chunks tasks)")
+    parser.add_argument("in_dir", type=Path, help="folder of input images (PNG, JPEG, EXR); for ttf, the sequence")
     parser.add_argument("out_dir", type=Path, help="output folder (created if missing)")
     parser.add_argument(
         "--engine",
         choices=("local", "ray"),
         default="local",
-        help="run tasks in this process / a local process pool, or on Ray (default: local)",
+        help="run tasks here (in-process, or a process pool with --workers) or on Ray (default: local)",
     )
     parser.add_argument(
         "--workers", type=int, default=1, help="tasks run at once (default: 1; each then gets CPUs / workers threads)"
@@ -242,28 +354,39 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         "--threads", type=int, default=None, help="worker threads (and Ray CPUs) per task (default: CPUs / --workers)"
     )
     parser.add_argument(
-        "--seed", type=int, default=0, help="batch seed; each input's seed derives from it and its name (default: 0)"
+        "--seed",
+        type=int,
+        default=0,
+        help="batch seed; each input's seed derives from it and the input's name (default: 0)",
     )
     parser.add_argument(
         "--address",
         default=None,
-        help="Ray cluster to connect to, as ray.init(address=...); 'auto' for the local node's (default: start one)",
+        help="Ray cluster to use, as ray.init(address=...); 'auto' for the local node's (default: start one)",
     )
     parser.add_argument("--force", action="store_true", help="re-run inputs whose output is already complete")
+    parser.add_argument(
+        "--chunks",
+        type=int,
+        default=None,
+        help="ttf: split the output frames into this many tasks, merged at the end (default: 1)",
+    )
     args, flags = parser.parse_known_args(argv)
+    common = dict(
+        engine=args.engine,
+        workers=args.workers,
+        threads=args.threads,
+        seed=args.seed,
+        address=args.address,
+        force=args.force,
+    )
     try:
-        summary = run_batch(
-            args.job,
-            args.in_dir,
-            args.out_dir,
-            flags,
-            engine=args.engine,
-            workers=args.workers,
-            threads=args.threads,
-            seed=args.seed,
-            address=args.address,
-            force=args.force,
-        )
+        if args.job in CHUNKED_JOBS:
+            summary = run_chunks(args.job, args.in_dir, args.out_dir, args.chunks or 1, flags, **common)
+        elif args.chunks is not None:
+            raise ValueError(f"--chunks is for {', '.join(CHUNKED_JOBS)}; {args.job} runs one task per input")
+        else:
+            summary = run_batch(args.job, args.in_dir, args.out_dir, flags, **common)
     except ValueError as e:
         print(f"patina batch: {e}", file=sys.stderr)
         return 2

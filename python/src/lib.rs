@@ -156,18 +156,37 @@ fn write_image(path: PathBuf, data: &[u8], height: usize, width: usize, channels
         Some(d) => io::save_png(&image, &path, d),
         None => io::save_exr(&image, &path),
     };
-    written.map_err(|e| PyRuntimeError::new_err(patina_cli::error_message(&e)))
+    written.map_err(|e| py_error(&e))
+}
+
+/// A patina error as Python's: ValueError for bad input, RuntimeError for
+/// internal errors, with the CLI's one-line message.
+fn py_error(e: &patina::Error) -> PyErr {
+    let message = patina_cli::error_message(e);
+    if e.is_usage() {
+        PyValueError::new_err(message)
+    } else {
+        PyRuntimeError::new_err(message)
+    }
 }
 
 /// Read an image file the way the CLI does: (height, width, channels, f32 bytes).
 #[pyfunction]
 fn read_image(py: Python<'_>, path: PathBuf) -> PyResult<(usize, usize, usize, Py<PyByteArray>)> {
-    let image = py.detach(|| io::load(&path)).map_err(|e| {
-        let message = patina_cli::error_message(&e);
-        if e.is_usage() { PyValueError::new_err(message) } else { PyRuntimeError::new_err(message) }
-    })?;
+    let image = py.detach(|| io::load(&path)).map_err(|e| py_error(&e))?;
     let (_, h, w, c, bytes) = to_python(py, path, &image)?;
     Ok((h, w, c, bytes))
+}
+
+/// Write an animated GIF of image files (in order), as the CLI writes its
+/// sequence previews: one palette for all frames, `delay_ms` per frame.
+#[pyfunction]
+fn write_gif(py: Python<'_>, frames: Vec<PathBuf>, path: PathBuf, delay_ms: u32) -> PyResult<()> {
+    py.detach(|| -> patina::Result<()> {
+        let images = frames.iter().map(io::load).collect::<patina::Result<Vec<Image>>>()?;
+        io::save_gif(&images.iter().collect::<Vec<_>>(), &path, delay_ms)
+    })
+    .map_err(|e| py_error(&e))
 }
 
 /// The CLI's `--help` text for a command line (e.g. `["synth"]`).
@@ -193,6 +212,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(help, m)?)?;
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(write_gif, m)?)?;
     m.add_function(wrap_pyfunction!(version, m)?)?;
     Ok(())
 }

@@ -1,10 +1,9 @@
 //! `patina decay`, `patina decay-texture`: natural image decay (Hao et al. 2023).
 
-use crate::output::{check_outputs, manifest_path, parse_size, write_sequence, Manifest, OutDir, Stopwatch};
+use crate::output::{check_outputs, manifest_path, parse_size, save, save_png, write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
 use patina::decay::{self, degree::Diffusion, texture, DecayClass, DecayParams, Inputs, ShadingParams};
 use patina::image::color::{linear_to_srgb, luminance};
-use crate::output::{save, save_png};
 use patina::image::io::{self, BitDepth};
 use patina::image::{Image, Mask};
 use patina::{Error, Result};

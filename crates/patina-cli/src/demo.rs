@@ -1,9 +1,8 @@
 //! `patina demo`: the whole pipeline on samples patina makes itself.
 
-use crate::output::{mkdir, Manifest, OutDir, Stopwatch};
+use crate::output::{mkdir, save_png, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
 use clap::Parser;
-use crate::output::save_png;
 use patina::image::io::BitDepth;
 use patina::synth::{OptimizeParams, QuiltParams, Synthesis};
 use patina::{metrics, samples, Error, Result};

@@ -78,10 +78,12 @@ pub fn run(run: Run<'_>) -> Result<Vec<Output>, Failure> {
         Err(e) => return Err(Failure::Usage(crate::parse_message(&e))),
     };
     let pool = match run.threads {
-        Some(n) => Some(rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build().map_err(|e| Failure::Run {
-            message: format!("cannot start {n} worker threads: {e}"),
-            bad_input: false,
-        })?),
+        Some(n) => Some(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n.max(1))
+                .build()
+                .map_err(|e| Failure::Run { message: format!("cannot start {n} worker threads: {e}"), bad_input: false })?,
+        ),
         None => None,
     };
     let session = Arc::new(Session { progress: run.progress, cancel: run.cancel, outputs: Mutex::new(Vec::new()) });

@@ -289,9 +289,15 @@ pub fn mkdir(dir: &Path) -> Result<()> {
 /// Write a sequence of (t, frame) under `dir`: frames/NNN.png (encoded in
 /// parallel) and sequence.gif, each recorded in the manifest.
 pub fn write_sequence(dir: &Path, frames: &[(f32, &Image)], gif_delay_ms: u32, manifest: &mut Manifest) -> Result<()> {
+    write_sequence_from(dir, 0, frames, gif_delay_ms, manifest)
+}
+
+/// [`write_sequence`] for part of a sequence whose first frame is number
+/// `first` of the whole (the frames keep their numbers in the whole).
+pub fn write_sequence_from(dir: &Path, first: usize, frames: &[(f32, &Image)], gif_delay_ms: u32, manifest: &mut Manifest) -> Result<()> {
     let frames_dir = dir.join("frames");
     mkdir(&frames_dir)?;
-    let rels: Vec<PathBuf> = (0..frames.len()).map(|i| PathBuf::from("frames").join(format!("{i:03}.png"))).collect();
+    let rels: Vec<PathBuf> = (first..first + frames.len()).map(|i| PathBuf::from("frames").join(format!("{i:03}.png"))).collect();
     frames.par_iter().zip(&rels).try_for_each(|((_, f), rel)| save_png(f, dir.join(rel), BitDepth::Eight))?;
     manifest.frames.extend(frames.iter().zip(rels).map(|((t, _), path)| FrameEntry { t: *t, path }));
     let images: Vec<&Image> = frames.iter().map(|(_, f)| *f).collect();

@@ -1,10 +1,9 @@
 //! `patina stbrdf fit|enlarge|transfer|render`: spatio-temporal BRDF
 //! materials (Meister et al. 2021).
 
-use crate::output::{parse_size, side_by_side, Manifest, OutDir, Stopwatch};
+use crate::output::{parse_size, save_png, side_by_side, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
 use crate::synth::GuideArgs;
-use crate::output::save_png;
 use patina::image::io::{self, save_gif, BitDepth};
 use patina::image::sequence::{load_sequence, natural_cmp, MAX_FRAMES};
 use patina::image::Image;

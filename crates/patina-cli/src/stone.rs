@@ -1,8 +1,7 @@
 //! `patina stone`: stone weathering in a photograph (Xue et al. 2011).
 
-use crate::output::{write_sequence, Manifest, OutDir, Stopwatch};
+use crate::output::{save_png, write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
-use crate::output::save_png;
 use patina::image::io::BitDepth;
 use patina::image::{Image, Mask};
 use patina::stone::{self, segment, StoneParams};

@@ -1,9 +1,8 @@
 //! `patina ttf`: time-varying texture synthesis from a time-lapse
 //! (Enrique, Koudelka et al.).
 
-use crate::output::{parse_size, side_by_side, write_sequence, Manifest, OutDir, Stopwatch};
+use crate::output::{parse_size, save_png, side_by_side, write_sequence_from, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
-use crate::output::save_png;
 use patina::image::io::{save_gif, BitDepth};
 use patina::image::sequence::{load_sequence, Sequence};
 use patina::image::Image;
@@ -84,6 +83,12 @@ pub struct Args {
     /// Milliseconds per frame in the GIFs.
     #[arg(long, default_value_t = 80)]
     pub gif_delay: u32,
+    /// Make only part K of N of the output frames (e.g. 3/8), numbered as in the whole output, for a render farm:
+    /// every chunk computes the whole run's layout, so chunks are byte-identical to the same frames of one run
+    /// and join without overlap. Merge them with `python -m patina.batch ttf ... --chunks N`, or by copying the
+    /// frames/ folders together [default: all frames]
+    #[arg(long, value_parser = parse_chunk)]
+    pub chunk: Option<(usize, usize)>,
     /// Random seed; the same inputs and seed give identical outputs.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -120,6 +125,22 @@ fn parse_range(s: &str) -> std::result::Result<Range<usize>, String> {
         return Err(format!("frame range {a}..{b} is empty"));
     }
     Ok(a..b)
+}
+
+/// Parse `K/N` with 1 <= K <= N.
+fn parse_chunk(s: &str) -> std::result::Result<(usize, usize), String> {
+    let bad = || format!("'{s}' is not a chunk K/N (e.g. 3/8)");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (k, n): (usize, usize) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+    if n == 0 || k == 0 || k > n || n > 10_000 {
+        return Err(format!("chunk {k}/{n} must have 1 <= K <= N <= 10000"));
+    }
+    Ok((k, n))
+}
+
+/// The output frames of chunk K of N: N near-equal consecutive ranges.
+fn chunk_range((k, n): (usize, usize), frames: usize) -> Range<usize> {
+    (k - 1) * frames / n..k * frames / n
 }
 
 fn parse_point(s: &str) -> std::result::Result<[f32; 3], String> {
@@ -206,18 +227,26 @@ pub fn run(args: Args) -> Result<()> {
         lighting: args.lighting.into(),
         balance: !args.no_balance,
     };
-    let result = with_bar("ttf", |report| ttf::synthesize(&frames, size, &params, rate.as_ref(), args.seed, Some(report)))?;
+    let total = ttf::output_frames(&frames, size, &params, rate.as_ref())?;
+    let chunk = args.chunk.map(|c| chunk_range(c, total));
+    if chunk.as_ref().is_some_and(|c| c.is_empty()) {
+        let (k, n) = args.chunk.unwrap_or_default();
+        return Err(Error::invalid(format!("chunk {k}/{n} holds none of the output's {total} frames; use fewer chunks")));
+    }
+    let result =
+        with_bar("ttf", |report| ttf::synthesize_chunk(&frames, size, &params, rate.as_ref(), args.seed, chunk.clone(), Some(report)))?;
     manifest.timings_ms.insert("synthesize".into(), clock.lap());
 
-    let timed: Vec<(f32, &Image)> = result.frames.iter().enumerate().map(|(t, f)| (t as f32, f)).collect();
-    write_sequence(dir, &timed, args.gif_delay, &mut manifest)?;
+    let first = result.first_frame;
+    let timed: Vec<(f32, &Image)> = result.frames.iter().enumerate().map(|(t, f)| ((first + t) as f32, f)).collect();
+    write_sequence_from(dir, first, &timed, args.gif_delay, &mut manifest)?;
     if args.compare {
         let n = frames.len();
         let pairs: Vec<Image> = (0..result.frames.len())
-            .map(|t| {
-                let src =
-                    if result.frames.len() > 1 { (t * (n - 1) + (result.frames.len() - 1) / 2) / (result.frames.len() - 1) } else { 0 };
-                side_by_side(&frames[src.min(n - 1)], &result.frames[t])
+            .map(|i| {
+                let t = first + i;
+                let src = if total > 1 { (t * (n - 1) + (total - 1) / 2) / (total - 1) } else { 0 };
+                side_by_side(&frames[src.min(n - 1)], &result.frames[i])
             })
             .collect();
         save_gif(&pairs.iter().collect::<Vec<_>>(), dir.join("compare.gif"), args.gif_delay)?;
@@ -238,6 +267,8 @@ pub fn run(args: Args) -> Result<()> {
     p["lighting_used"] = json!(result.lighting.as_ref().map_or("keep", |l| l.relight));
     p["frames_range"] = json!(args.frames.as_ref().map(|r| [r.start, r.end]));
     p["step"] = json!(args.step);
+    p["output_frames"] = json!(total);
+    p["chunk"] = json!(args.chunk.map(|(k, n)| json!({ "index": k, "of": n, "frames": [first, first + result.frames.len()] })));
     p["rate"] = json!(match (&args.rate_map, args.rate_light, &args.rate_curvature) {
         (Some(f), _, _) => json!({ "map": f, "scale": args.rate_scale }),
         (_, Some(l), _) => json!({ "light": l, "normal_map": args.normal_map, "scale": args.rate_scale }),

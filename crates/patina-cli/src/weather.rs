@@ -2,9 +2,8 @@
 //! `patina weather-transfer`: texture weathering from a single image
 //! (Bellini et al. 2016).
 
-use crate::output::{check_outputs, manifest_path, write_sequence, Manifest, OutDir, Stopwatch};
+use crate::output::{check_outputs, manifest_path, save_png, write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
-use crate::output::save_png;
 use patina::image::io::{self, BitDepth};
 use patina::image::Image;
 use patina::weather::{self, age_map, intact, layers::Layers, transfer, Overrides, Stage, WeatherParams};

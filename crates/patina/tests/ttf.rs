@@ -220,3 +220,27 @@ fn a_vignetted_sequence_is_enlarged_without_grid_patchwork_or_added_flicker() {
     let (r, r_paper) = (rep(&out.frames[12]), rep(&paper.frames[12]));
     assert!(r <= 0.08 && r < 0.4 * r_paper, "near-verbatim share {r}, the paper's method {r_paper}");
 }
+
+#[test]
+fn chunks_are_the_whole_runs_frames_byte_for_byte() {
+    // Vignetted, so the chunks also share the flat re-lighting's gain, and
+    // with the seam blend, so they share its key-frame corrections.
+    let input = patina::samples::vignette(&rusting_timelapse(96, 96, 21, 8), 0.6);
+    let params = TtfParams::default();
+    let whole = run(&input, (128, 128), &params, None, 5);
+    assert!(whole.lighting.is_some(), "the test means to cover re-lighting");
+    assert_eq!(patina::ttf::output_frames(&input, (128, 128), &params, None).unwrap(), 21);
+    // Chunk edges inside and on the key-frame step (every 8 frames).
+    for range in [0..5, 5..16, 16..21, 8..9] {
+        let part = patina::ttf::synthesize_chunk(&input, (128, 128), &params, None, 5, Some(range.clone()), None).unwrap();
+        assert_eq!(part.first_frame, range.start);
+        assert_eq!(part.frames.len(), range.len());
+        for (i, f) in part.frames.iter().enumerate() {
+            assert!(f.data() == whole.frames[range.start + i].data(), "frame {} of chunk {range:?} differs", range.start + i);
+        }
+    }
+    for bad in [0..0, 20..22] {
+        let e = patina::ttf::synthesize_chunk(&input, (128, 128), &params, None, 5, Some(bad), None).unwrap_err();
+        assert!(e.is_usage() && e.to_string().contains("21 frames"), "{e}");
+    }
+}

@@ -219,6 +219,11 @@ fn drift_field(lum: &Image, sigma: f32) -> Result<Image> {
     resize(&blurred, w, h, Filter::Linear)
 }
 
+/// The mean luminance of a sequence's frames together.
+pub fn sequence_luminance(frames: &[Image]) -> f32 {
+    frames.iter().map(|f| mean(&luminance(f))).sum::<f32>() / frames.len().max(1) as f32
+}
+
 /// The low-passed log luminance of `lum`, relative to its mean.
 fn log_field(lum: &Image, sigma: f32) -> Image {
     let log_lum = lum.map(|v| (v.max(0.0) + LOG_FLOOR).ln());
@@ -229,13 +234,14 @@ fn log_field(lum: &Image, sigma: f32) -> Image {
 }
 
 /// Re-light synthesized detail frames with one gain for all of them (a flat
-/// re-lighting matches the mean luminance of all frames together to the
-/// exemplar's, so the sequence's own brightening or darkening is kept).
-pub fn relight_sequence(frames: &mut [Image], sep: &Separation, how: Relight) -> Result<()> {
+/// re-lighting brings `detail_mean`, the mean luminance of the detail frames
+/// they were made from, to the exemplar's, so the sequence's own
+/// brightening or darkening is kept, and any part of the sequence gets the
+/// same gain).
+pub fn relight_sequence(frames: &mut [Image], sep: &Separation, how: Relight, detail_mean: impl FnOnce() -> f32) -> Result<()> {
     let Some(first) = frames.first() else { return Ok(()) };
     let size = first.size();
-    let mean_all = || frames.iter().map(|f| mean(&luminance(f))).sum::<f32>() / frames.len() as f32;
-    if let Some(g) = gain(size, sep, how, mean_all)? {
+    if let Some(g) = gain(size, sep, how, detail_mean)? {
         frames.par_iter_mut().for_each(|f| apply_gain(f, &g));
     }
     Ok(())

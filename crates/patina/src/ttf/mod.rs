@@ -35,10 +35,11 @@ pub use warp::TimeWarp;
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::rng;
-use crate::synth::lighting::{relight_sequence, separate_sequence, LightingReport, Relight};
+use crate::synth::lighting::{relight_sequence, separate_sequence, sequence_luminance, LightingReport, Relight};
 use crate::synth::{PatchMetric, Progress, QuiltParams, QuiltPlan, Synthesis};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::ops::Range;
 
 /// How the input's lighting is treated (section 5.3).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -156,8 +157,11 @@ pub struct Compression {
 /// The result of [`synthesize`].
 #[derive(Clone, Debug)]
 pub struct Ttf {
-    /// The output frames (as many as the input, or as the rate map sets).
+    /// The output frames (as many as the input, or as the rate map sets;
+    /// those of the chunk asked for, see [`synthesize_chunk`]).
     pub frames: Vec<Image>,
+    /// The index of `frames[0]` in the whole output (0 unless chunked).
+    pub first_frame: usize,
     /// Blocks and seams, shared by every frame.
     pub plan: QuiltPlan,
     /// Each block's time warp (identity without jitter), in plan order.
@@ -172,13 +176,41 @@ pub struct Ttf {
 /// With a `rate` map (the output's size), each pixel runs at its own speed.
 pub fn synthesize(
     frames: &[Image],
-    (width, height): (usize, usize),
+    size: (usize, usize),
     params: &TtfParams,
     rate: Option<&RateMap>,
     seed: u64,
     progress: Option<Progress>,
 ) -> Result<Ttf> {
+    synthesize_chunk(frames, size, params, rate, seed, None, progress)
+}
+
+/// The number of output frames [`synthesize`] makes from `frames`.
+pub fn output_frames(frames: &[Image], size: (usize, usize), params: &TtfParams, rate: Option<&RateMap>) -> Result<usize> {
+    Ok(check_input(frames, size, params, rate)?.1)
+}
+
+/// [`synthesize`], making only the output frames in `chunk` (all when
+/// `None`). The layout, time warps and seam corrections are the whole
+/// run's, so chunks rendered separately (on different machines) are
+/// byte-identical to the same frames of one whole run and join without
+/// overlap or blending. Each chunk repeats the layout search (the SVD and
+/// the quilt); it saves the rendering, the seam solves of other chunks'
+/// key frames, the encoding and the memory of the other frames.
+pub fn synthesize_chunk(
+    frames: &[Image],
+    (width, height): (usize, usize),
+    params: &TtfParams,
+    rate: Option<&RateMap>,
+    seed: u64,
+    chunk: Option<Range<usize>>,
+    progress: Option<Progress>,
+) -> Result<Ttf> {
     let (n, out_frames) = check_input(frames, (width, height), params, rate)?;
+    let chunk = chunk.unwrap_or(0..out_frames);
+    if chunk.is_empty() || chunk.end > out_frames {
+        return Err(Error::invalid(format!("frames {}..{} are not a part of the output's {out_frames} frames", chunk.start, chunk.end)));
+    }
     let report = |done: u64| {
         if let Some(p) = progress {
             p(done, 100);
@@ -262,7 +294,12 @@ pub fn synthesize(
         if keys.last() != Some(&(out_frames - 1)) {
             keys.push(out_frames - 1);
         }
-        keys.into_par_iter()
+        // The keys the chunk's frames interpolate between.
+        let first = keys.iter().position(|&k| k >= chunk.start).unwrap_or(0).saturating_sub(1);
+        let last = keys.iter().position(|&k| k + 1 >= chunk.end).unwrap_or(keys.len() - 1);
+        keys[first..=last]
+            .to_vec()
+            .into_par_iter()
             .map(|t| {
                 let window = t.saturating_sub(KEY_STEP)..(t + KEY_STEP + 1).min(out_frames);
                 let k = 1.0 / window.len() as f32;
@@ -281,7 +318,9 @@ pub fn synthesize(
     };
     report(70);
     let done = std::sync::atomic::AtomicU64::new(0);
-    let mut out: Vec<Image> = (0..out_frames)
+    let count = chunk.len();
+    let mut out: Vec<Image> = chunk
+        .clone()
         .into_par_iter()
         .map(|t| {
             let mut img = render(t);
@@ -292,13 +331,15 @@ pub fn synthesize(
                 img.data_mut().iter_mut().zip(c0.iter().zip(c1)).for_each(|(v, (a, b))| *v += a + w * (b - a));
             }
             let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            report(70 + 30 * d / out_frames as u64);
+            report(70 + 30 * d / count as u64);
             img
         })
         .collect();
     let lighting = match &separated {
         Some((sep, detail)) => {
-            relight_sequence(&mut out, sep, relight)?;
+            // Lit at the detail frames' mean brightness (the whole input's,
+            // so every chunk gets the same gain).
+            relight_sequence(&mut out, sep, relight, || sequence_luminance(detail))?;
             Some(LightingReport {
                 relight: relight.name(),
                 exemplar_nonstationarity: variation.unwrap_or_default(),
@@ -308,7 +349,7 @@ pub fn synthesize(
         }
         None => None,
     };
-    Ok(Ttf { frames: out, plan, warps, compression, lighting })
+    Ok(Ttf { frames: out, first_frame: chunk.start, plan, warps, compression, lighting })
 }
 
 /// Seam mismatches are clamped to this many median absolute deviations
