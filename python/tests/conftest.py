@@ -13,15 +13,15 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def _cli_path() -> Path:
-    """The CLI to compare against: $PATINA_BIN, else the workspace's build (built if needed, with the test profile
-    `cargo test --workspace` already built it with)."""
+    """The CLI to compare against: $PATINA_BIN, else the binary `cargo test --workspace` builds (asked of cargo,
+    which builds it only if that has not run: a plain `cargo build` would resolve features differently and rebuild)."""
     if os.environ.get("PATINA_BIN"):
         return Path(os.environ["PATINA_BIN"])
     cargo = shutil.which("cargo")
     if cargo is None:
         pytest.skip("no cargo to build the patina CLI, and PATINA_BIN is not set")
     out = subprocess.run(
-        [cargo, "build", "--profile", "test", "-p", "patina-cli", "--bin", "patina", "--message-format=json"],
+        [cargo, "test", "--workspace", "--no-run", "--message-format=json"],
         cwd=REPO,
         check=True,
         capture_output=True,
@@ -29,7 +29,13 @@ def _cli_path() -> Path:
     ).stdout
     for line in out.splitlines():
         msg = json.loads(line)
-        if msg.get("reason") == "compiler-artifact" and msg.get("executable"):
+        target = msg.get("target", {})
+        if (
+            msg.get("reason") == "compiler-artifact"
+            and target.get("kind") == ["bin"]
+            and target.get("name") == "patina"
+            and not msg.get("profile", {}).get("test")  # the CLI itself, not its unit-test harness
+        ):
             return Path(msg["executable"])
     raise RuntimeError("cargo did not report the patina binary")
 
