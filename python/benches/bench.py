@@ -1,6 +1,6 @@
 """Benchmarks of the Python package: call overhead against the CLI, and batch throughput.
 
-    python python/bench.py [--cli PATH] [--quick]
+    python python/benches/bench.py [--cli PATH] [--quick]
 
 1. A 512 px `synth` from a 256 px exemplar: the CLI (a process: start, load, synthesize, save), against
    `patina.synth` from a path and from a numpy array (in-process: arrays written to a scratch file, the run,
@@ -28,7 +28,7 @@ import numpy as np
 import patina
 from patina import batch
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parent.parent  # python/
 DATA = HERE.parent.parent / "shared" / "data"
 
 
@@ -42,10 +42,15 @@ def exemplars(count: int, side: int):
         a = patina.to_array(p)
         if a.shape[0] < side or a.shape[1] < side or a.shape[2] < 3:
             continue
-        y, x = (a.shape[0] - side) // 2, (a.shape[1] - side) // 2
-        out.append((np.clip(a[y : y + side, x : x + side, :3], 0, 1) * 255).round().astype(np.uint8))
-        if len(out) == count:
-            return out, "photo crops"
+        # The centre and, where the photo is large enough, its four quadrants' centres.
+        h, w = a.shape[:2]
+        spots = [((h - side) // 2, (w - side) // 2)]
+        if h >= 2 * side and w >= 2 * side:
+            spots += [(h * fy // 4 - side // 2, w * fx // 4 - side // 2) for fy in (1, 3) for fx in (1, 3)]
+        for y, x in spots:
+            out.append((np.clip(a[y : y + side, x : x + side, :3], 0, 1) * 255).round().astype(np.uint8))
+            if len(out) == count:
+                return out, "photo crops"
     rng = np.random.default_rng(1)
     while len(out) < count:
         tone = rng.uniform(0.3, 0.8, size=(side // 8 + 1, side // 16 + 1))
