@@ -110,6 +110,10 @@ pub struct EnlargeArgs {
     /// Do not blend the seams between copied regions in the gradient domain (blending is exact on coefficients).
     #[arg(long)]
     pub no_seam_blend: bool,
+    /// Make the material tile seamlessly: its left edge continues its right and its top its bottom (wrap-around
+    /// synthesis; skips the seam blend, which does not wrap; not with --illumination stretch).
+    #[arg(long)]
+    pub tile: bool,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -368,6 +372,7 @@ fn run_enlarge(args: EnlargeArgs) -> Result<()> {
             IlluminationArg::Keep => enlarge::Illumination::Keep,
         },
         blend_seams: !args.no_seam_blend,
+        tileable: args.tile,
         optimize: OptimizeParams::default(),
     };
     let enlarged = with_bar("enlarge", |report| {

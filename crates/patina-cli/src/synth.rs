@@ -144,6 +144,10 @@ pub struct Args {
     pub transfer_passes: usize,
     #[command(flatten)]
     pub guide: GuideArgs,
+    /// Make the output tile seamlessly: its left edge continues its right and its top its bottom (wrap-around
+    /// synthesis; with --method quilt the cuts are not blended; not with --relight stretch).
+    #[arg(long)]
+    pub tile: bool,
     /// How the output is lit (lighting-aware synthesis).
     #[arg(long, value_enum, default_value_t = RelightArg::Keep)]
     pub relight: RelightArg,
@@ -235,7 +239,12 @@ pub fn run(args: Args) -> Result<()> {
     manifest.timings_ms.insert("load".into(), clock.lap());
 
     let (image, mut params) = with_bar("synth", |report| -> Result<_> {
-        let mut problem = Synthesis::new(&exemplar).size(size.0, size.1).seed(args.seed).progress(report).relight(args.relight.relight());
+        let mut problem = Synthesis::new(&exemplar)
+            .size(size.0, size.1)
+            .seed(args.seed)
+            .progress(report)
+            .relight(args.relight.relight())
+            .tileable(args.tile);
         if let Some((s, t)) = &guides {
             problem = problem.guides(s, t, args.guide.guide_weight);
         }
@@ -266,6 +275,7 @@ pub fn run(args: Args) -> Result<()> {
     params["guide_weight"] = json!(args.guide.guide_weight);
     params["bits"] = json!(args.bits);
     params["relight"] = json!(args.relight.relight().name());
+    params["tile"] = json!(args.tile);
     manifest.params = params;
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.outputs = vec![args.out.clone()];

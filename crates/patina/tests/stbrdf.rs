@@ -155,3 +155,31 @@ fn masked_transfer_leaves_the_outside_alone_and_grows_spots_inside() {
         }
     }
 }
+
+/// The mean luminance step across the image's left/right and top/bottom
+/// edges (where a tiling joins) over the mean step between neighbours.
+fn edge_step(img: &Image) -> f64 {
+    let y = luminance(img);
+    let (w, h) = y.size();
+    let at = |x: usize, yy: usize| y.at(x % w, yy % h, 0) as f64;
+    let across: f64 =
+        (0..h).map(|r| (at(w - 1, r) - at(0, r)).abs()).sum::<f64>() + (0..w).map(|c| (at(c, h - 1) - at(c, 0)).abs()).sum::<f64>();
+    let inside: f64 = (0..h).flat_map(|r| (0..w - 1).map(move |c| (c, r))).map(|(c, r)| (at(c, r) - at(c + 1, r)).abs()).sum::<f64>()
+        + (0..h - 1).flat_map(|r| (0..w).map(move |c| (c, r))).map(|(c, r)| (at(c, r) - at(c, r + 1)).abs()).sum::<f64>();
+    (across / (w + h) as f64) / (inside / (2 * w * h - w - h) as f64)
+}
+
+#[test]
+fn a_tileable_enlargement_repeats_without_seams_at_every_time() {
+    let (_, captured) = rusting(96);
+    let tiled = enlarge(&captured, (160, 160), &EnlargeParams { tileable: true, ..Default::default() }, None, 3, None).unwrap();
+    let plain = enlarge(&captured, (160, 160), &EnlargeParams::default(), None, 3, None).unwrap();
+    for t in [0.0, 0.5, 1.0] {
+        let (a, b) = (edge_step(&basecolor(&tiled, t)), edge_step(&basecolor(&plain, t)));
+        assert!(a < 1.4, "t = {t}: the tile's edges step {a:.2}x the mean neighbour step");
+        assert!(b > 1.5 * a, "t = {t}: the check cannot tell a plain enlargement ({b:.2}) from a tileable one ({a:.2})");
+    }
+    let stretched = EnlargeParams { tileable: true, illumination: Illumination::Stretch, ..Default::default() };
+    let e = enlarge(&captured, (160, 160), &stretched, None, 3, None).unwrap_err();
+    assert!(e.is_usage() && e.to_string().contains("tileable"), "{e}");
+}

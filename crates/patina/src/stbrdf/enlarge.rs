@@ -95,12 +95,23 @@ pub struct EnlargeParams {
     pub illumination: Illumination,
     /// Blend the seams between copied regions in the gradient domain.
     pub blend_seams: bool,
+    /// Make the material tile (wrap-around synthesis, see
+    /// [`Synthesis::tileable`]). The seam blend's Poisson solve does not
+    /// wrap, so tileable runs skip it; lighting can be flat or kept, not
+    /// stretched.
+    pub tileable: bool,
     pub optimize: OptimizeParams,
 }
 
 impl Default for EnlargeParams {
     fn default() -> Self {
-        EnlargeParams { weights: None, illumination: Illumination::Auto, blend_seams: true, optimize: OptimizeParams::default() }
+        EnlargeParams {
+            weights: None,
+            illumination: Illumination::Auto,
+            blend_seams: true,
+            tileable: false,
+            optimize: OptimizeParams::default(),
+        }
     }
 }
 
@@ -161,6 +172,11 @@ pub fn enlarge(
         Illumination::Auto => Illumination::Keep,
         chosen => chosen,
     };
+    if params.tileable && illumination == Illumination::Stretch {
+        return Err(Error::invalid(
+            "a tileable material cannot take the capture's stretched lighting, which does not wrap; use flat or keep",
+        ));
+    }
     let separation = match (&diffuse, illumination) {
         (Some(kd), Illumination::Flat | Illumination::Stretch) => {
             let sep = lighting::separate_smooth(&time_average(material, kd.clone()));
@@ -174,7 +190,11 @@ pub fn enlarge(
     // result is mapped back.
     let basis = Orthonormal::new(material.degree);
     basis.apply(coefficients.data_mut(), true);
-    let mut problem = Synthesis::new(&coefficients).size(width, height).metric(orthonormal_metric(material, weights)?).seed(seed);
+    let mut problem = Synthesis::new(&coefficients)
+        .size(width, height)
+        .metric(orthonormal_metric(material, weights)?)
+        .seed(seed)
+        .tileable(params.tileable);
     if let Some((s, t, w)) = guides {
         problem = problem.guides(s, t, w);
     }
@@ -185,7 +205,7 @@ pub fn enlarge(
     // Guided synthesis places content by the guide, not in blocks: nearly
     // every neighbour pair is a "seam", and blending would integrate the
     // source's gradients back into its own layout (a ramp re-imposed).
-    let mut out = if params.blend_seams && guides.is_none() {
+    let mut out = if params.blend_seams && guides.is_none() && !params.tileable {
         let positions: Vec<(u32, u32)> = synthesized.nnf.matches().iter().map(|p| (p.x, p.y)).collect();
         blend_seams(&synthesized.image, &coefficients, &positions, None)
     } else {

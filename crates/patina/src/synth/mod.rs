@@ -4,7 +4,8 @@
 //! - [`nnf`] and [`patchmatch`]: nearest-neighbour fields and their search.
 //! - [`vote`]: averaging overlapping patches into an image.
 //! - [`problem`]: the [`Synthesis`] builder describing one problem.
-//! - [`optimize`]: texture optimization (search + vote over a pyramid).
+//! - [`optimize`]: texture optimization (search + vote over a pyramid);
+//!   [`torus`]: its wrap-around working copies for tileable outputs.
 //! - [`correlate`] and [`quilt`]: image quilting with FFT candidate search
 //!   and minimum-error boundary cuts.
 
@@ -18,6 +19,7 @@ pub mod patchmatch;
 pub mod poisson;
 pub mod problem;
 pub mod quilt;
+mod torus;
 pub mod vote;
 
 pub use distance::{GroupDistance, PatchMetric, TexelDistance};

@@ -9,6 +9,7 @@ use super::nnf::{block_nnf, random_nnf, upsample_nnf, Match, Nnf, SourceDomain};
 use super::patchmatch::PatchMatch;
 use super::problem::Synthesis;
 use super::quilt::QuiltParams;
+use super::torus::Torus;
 use super::vote::{vote, VoteWeights};
 use crate::error::{Error, Result};
 use crate::image::resample::{gaussian_pyramid, pyramid};
@@ -138,11 +139,12 @@ fn mask_down(m: &Mask, any: bool) -> Mask {
 
 /// Pixels whose right or lower neighbour was not copied from the next
 /// exemplar pixel: where two blocks meet.
-fn cut_lines(positions: &[(u32, u32)], w: usize, h: usize) -> Mask {
+fn cut_lines(positions: &[(u32, u32)], w: usize, h: usize, wrap: bool) -> Mask {
     Mask::from_fn(w, h, |x, y| {
         let p = positions[y * w + x];
-        let right = x + 1 < w && positions[y * w + x + 1] != (p.0 + 1, p.1);
-        let below = y + 1 < h && positions[(y + 1) * w + x] != (p.0, p.1 + 1);
+        let (xr, yb) = if wrap { ((x + 1) % w, (y + 1) % h) } else { (x + 1, y + 1) };
+        let right = xr < w && positions[y * w + xr] != (p.0 + 1, p.1);
+        let below = yb < h && positions[yb * w + x] != (p.0, p.1 + 1);
         right || below
     })
 }
@@ -177,7 +179,7 @@ impl Synthesis<'_> {
         seed: u64,
         seams_only: bool,
     ) -> Result<(Nnf, Mask)> {
-        let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed);
+        let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed).tileable(self.tileable);
         if let Some(m) = allowed {
             problem = problem.source_mask(m);
         }
@@ -203,7 +205,7 @@ impl Synthesis<'_> {
         };
         let plan = problem.quilt(&params)?.plan;
         let positions = plan.source_positions();
-        let seams = cut_lines(&positions, size.0, size.1);
+        let seams = cut_lines(&positions, size.0, size.1, self.tileable);
         let matches = positions
             .into_iter()
             .map(|(x, y)| {
@@ -216,6 +218,7 @@ impl Synthesis<'_> {
 
     /// Synthesize by texture optimization.
     pub fn optimize(&self, params: &OptimizeParams) -> Result<Synthesized> {
+        self.check_tileable()?;
         self.with_lighting(|s| s.optimize_as_is(params), |r| (&mut r.image, &mut r.lighting))
     }
 
@@ -289,7 +292,10 @@ impl Synthesis<'_> {
                         let allowed = allowed_pyr.as_ref().map(|p| &p[level]);
                         match self.quilt_field(style, sg, tg, allowed, (tw, th), &domain, level_seed, seams_only) {
                             Ok((field, overlap)) => {
-                                seams = seams_only.then(|| overlap.dilate(2 * r + 2));
+                                seams = seams_only.then(|| match self.tileable {
+                                    true => Torus::new(tw, th, 2 * r + 2).dilate(&overlap),
+                                    false => overlap.dilate(2 * r + 2),
+                                });
                                 field
                             }
                             // A scattered source mask may leave no room for a whole block.
@@ -302,6 +308,8 @@ impl Synthesis<'_> {
             };
             let hole = hole_pyr.as_ref().map(|p| &p[level]);
             let search = hole.map(|m| m.dilate(r));
+            let torus = self.tileable.then(|| Torus::new(tw, th, r));
+
             let coarsest = level == levels - 1;
             match (&start_pyr, coarsest) {
                 // Start from the given image: search before the first vote.
@@ -328,22 +336,53 @@ impl Synthesis<'_> {
                 exclude_self: None,
             };
             let mut active: Option<Mask> = search.clone().or(seams.take());
+            // On a torus, the level is worked on padded copies (see `torus`):
+            // only the interior is searched and voted.
+            let interior = torus.map(|t| t.interior());
+            let tguide = tguide_pyr.as_ref().map(|g| match &torus {
+                Some(t) => std::borrow::Cow::Owned(t.pad_image(&g[level])),
+                None => std::borrow::Cow::Borrowed(&g[level]),
+            });
+            let pad = match &torus {
+                Some(t) => t.pad_image(&pad),
+                None => pad,
+            };
+            // The masks over the worked image: searched, voted.
+            let (mut search, mut voted) = (search, hole.cloned());
+            if let (Some(t), Some(inside)) = (&torus, &interior) {
+                target = t.pad_image(&target);
+                field = t.pad_nnf(&field);
+                let inner = |m: Option<&Mask>| {
+                    let padded = m.map(|m| t.pad_mask(m));
+                    Mask::from_fn(inside.width(), inside.height(), |x, y| inside.get(x, y) && padded.as_ref().is_none_or(|p| p.get(x, y)))
+                };
+                active = Some(inner(active.as_ref()));
+                search = search.map(|s| inner(Some(&s)));
+                voted = Some(inner(hole));
+            }
+            let votes = voted.as_ref();
             for it in 0..iterations {
                 let mut parts = vec![&target];
-                if let Some(g) = &tguide_pyr {
-                    parts.push(&g[level]);
+                if let Some(g) = &tguide {
+                    parts.push(g);
                 }
                 if search_padding(metric.channels()) > 0 {
                     parts.push(&pad);
                 }
                 let full = Image::concat_channels(&parts)?;
                 pm.improve(&full, &source, &domain, &mut field, active.as_ref(), rng::derive(level_seed, &[it as u64]));
+                if let Some(t) = &torus {
+                    t.refresh_nnf(&mut field);
+                }
                 let before = (params.stop_threshold > 0.0).then(|| target.clone());
-                vote(&field, style, r, &mut target, hole, params.vote);
+                vote(&field, style, r, &mut target, votes, params.vote);
+                if let Some(t) = &torus {
+                    t.refresh_image(&mut target);
+                }
                 if let Some(before) = before {
                     let moved = changed(&before, &target, params.stop_threshold).dilate(r);
-                    active = Some(match &search {
-                        Some(s) => Mask::from_fn(tw, th, |x, y| s.get(x, y) && moved.get(x, y)),
+                    active = Some(match search.as_ref().or(interior.as_ref()) {
+                        Some(s) => Mask::from_fn(s.width(), s.height(), |x, y| s.get(x, y) && moved.get(x, y)),
                         None => moved,
                     });
                 }
@@ -351,6 +390,10 @@ impl Synthesis<'_> {
                 if let Some(p) = self.progress {
                     p(done, total);
                 }
+            }
+            if let Some(t) = &torus {
+                target = t.crop_image(&target);
+                field = t.crop_nnf(&field);
             }
             nnf = Some(field);
         }

@@ -31,6 +31,7 @@ pub struct Synthesis<'a> {
     pub(crate) seed: u64,
     pub(crate) progress: Option<Progress<'a>>,
     pub(crate) relight: super::lighting::Relight<'a>,
+    pub(crate) tileable: bool,
 }
 
 impl<'a> Synthesis<'a> {
@@ -49,6 +50,7 @@ impl<'a> Synthesis<'a> {
             seed: 0,
             progress: None,
             relight: super::lighting::Relight::Keep,
+            tileable: false,
         }
     }
     /// Lighting-aware synthesis ([`super::lighting`]): separate the
@@ -87,6 +89,15 @@ impl<'a> Synthesis<'a> {
             sigma: sep.sigma,
         });
         Ok(result)
+    }
+    /// Make the output tile: synthesize it on a torus ([`super::torus`]), so
+    /// its left edge continues its right edge and its top its bottom.
+    /// Texture optimization only; not with hole filling or a start image,
+    /// whose fixed content does not wrap, nor re-lit with the exemplar's
+    /// stretched lighting, which does not.
+    pub fn tileable(mut self, tileable: bool) -> Self {
+        self.tileable = tileable;
+        self
     }
     /// Output size (default: the target guide's, the filled image's, or the source's).
     pub fn size(mut self, width: usize, height: usize) -> Self {
@@ -200,6 +211,25 @@ impl<'a> Synthesis<'a> {
         let guide_c = self.target_guide.map_or(0, Image::channels);
         crate::image::budget::check_working_set("the output", w, h, src.channels() + guide_c)?;
         Ok(size)
+    }
+
+    /// Refuse a tileable problem whose given content or lighting cannot wrap
+    /// (checked where users ask for a tile, before the engine's own
+    /// tileable steps, which fill holes on the torus).
+    pub(crate) fn check_tileable(&self) -> Result<()> {
+        if self.tileable {
+            if self.fill.is_some() || self.start.is_some() {
+                return Err(Error::invalid(
+                    "a tileable output cannot fill a hole or start from an image: their fixed content does not wrap",
+                ));
+            }
+            if matches!(self.relight, super::lighting::Relight::Stretch) {
+                return Err(Error::invalid(
+                    "a tileable output cannot take the exemplar's stretched lighting, which does not wrap; use flat or keep",
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// The appearance metric (style channels) followed by the guide metric.

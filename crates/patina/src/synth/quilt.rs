@@ -134,6 +134,9 @@ pub struct QuiltPlan {
     pub overlap: (usize, usize),
     /// Blocks in paste order.
     pub placements: Vec<Placement>,
+    /// Tileable: output positions wrap around (the last blocks of each row
+    /// and column overlap the first ones across the edges).
+    pub wrap: bool,
 }
 
 /// Output of [`Synthesis::quilt`].
@@ -182,13 +185,13 @@ impl QuiltPlan {
         let mut out = Image::new(self.width, self.height, channels);
         let mut value = vec![0.0f32; channels];
         for (i, p) in self.placements.iter().enumerate() {
-            for y in 0..bh.min(self.height.saturating_sub(p.y)) {
-                for x in 0..bw.min(self.width.saturating_sub(p.x)) {
+            for y in 0..bh {
+                for x in 0..bw {
                     let k = p.keep[y * bw + x];
+                    let Some((ox, oy)) = self.output_pixel(p, x, y) else { continue };
                     if k == 0.0 {
                         continue;
                     }
-                    let (ox, oy) = (p.x + x, p.y + y);
                     sample(i, (p.source_x + x, p.source_y + y), (ox, oy), &mut value);
                     let d = out.pixel_mut(ox, oy);
                     for (d, v) in d.iter_mut().zip(&value) {
@@ -210,14 +213,24 @@ impl QuiltPlan {
         self.per_pixel(|_, p, x, y| ((p.source_x + x) as u32, (p.source_y + y) as u32), (0, 0))
     }
 
+    /// Where pixel (x, y) of placement `p` lands in the output (wrapped
+    /// when tileable), or `None` past its edge.
+    fn output_pixel(&self, p: &Placement, x: usize, y: usize) -> Option<(usize, usize)> {
+        let (ox, oy) = (p.x + x, p.y + y);
+        if self.wrap {
+            Some((ox % self.width, oy % self.height))
+        } else {
+            (ox < self.width && oy < self.height).then_some((ox, oy))
+        }
+    }
+
     fn per_pixel<T: Copy>(&self, f: impl Fn(usize, &Placement, usize, usize) -> T, empty: T) -> Vec<T> {
         let (bw, bh) = self.block;
         let mut out = vec![empty; self.width * self.height];
         for (i, p) in self.placements.iter().enumerate() {
             for y in 0..bh {
                 for x in 0..bw {
-                    let (ox, oy) = (p.x + x, p.y + y);
-                    if ox < self.width && oy < self.height && p.keep[y * bw + x] >= 0.5 {
+                    if let Some((ox, oy)) = self.output_pixel(p, x, y).filter(|_| p.keep[y * bw + x] >= 0.5) {
                         out[oy * self.width + ox] = f(i, p, x, y);
                     }
                 }
@@ -233,8 +246,7 @@ impl QuiltPlan {
         for p in &self.placements {
             for y in 0..bh {
                 for x in 0..bw {
-                    let (ox, oy) = (p.x + x, p.y + y);
-                    if ox < self.width && oy < self.height {
+                    if let Some((ox, oy)) = self.output_pixel(p, x, y) {
                         count[oy * self.width + ox] = count[oy * self.width + ox].saturating_add(1);
                     }
                 }
@@ -253,9 +265,15 @@ fn usable_placements(allowed: &Mask, (bw, bh): (usize, usize)) -> Vec<bool> {
     (0..vw * vh).map(|i| refused.sum(i % vw, i / vw, bw, bh) == 0.0).collect()
 }
 
-fn grid(w: usize, h: usize, block: (usize, usize), overlap: (usize, usize)) -> (usize, usize) {
+/// Blocks per row and column: enough to cover the output, or, tileable,
+/// to go round it with overlaps of at least the given ones.
+fn grid(w: usize, h: usize, block: (usize, usize), overlap: (usize, usize), wrap: bool) -> (usize, usize) {
     let (sx, sy) = (block.0 - overlap.0, block.1 - overlap.1);
-    (w.saturating_sub(overlap.0).div_ceil(sx).max(1), h.saturating_sub(overlap.1).div_ceil(sy).max(1))
+    if wrap {
+        (w.div_ceil(sx), h.div_ceil(sy))
+    } else {
+        (w.saturating_sub(overlap.0).div_ceil(sx).max(1), h.saturating_sub(overlap.1).div_ceil(sy).max(1))
+    }
 }
 
 fn paste(canvas: &mut Image, source: &Image, p: &Placement, (bw, bh): (usize, usize)) {
@@ -267,7 +285,8 @@ fn paste(canvas: &mut Image, source: &Image, p: &Placement, (bw, bh): (usize, us
                 continue;
             }
             let s = source.pixel(p.source_x + x, p.source_y + y);
-            let d = canvas.pixel_mut(p.x + x, p.y + y);
+            let (cw, ch) = canvas.size();
+            let d = canvas.pixel_mut((p.x + x) % cw, (p.y + y) % ch);
             for c in 0..n {
                 d[c] = k * s[c] + (1.0 - k) * d[c];
             }
@@ -280,10 +299,21 @@ fn fit(img: &Image, w: usize, h: usize) -> Image {
     Image::from_fn(w, h, img.channels(), |x, y, p| p.copy_from_slice(img.pixel(x.min(img.width() - 1), y.min(img.height() - 1))))
 }
 
-/// The block-sized window of `img` at (x, y), interleaved (always inside:
-/// canvases are whole numbers of blocks).
+/// The block-sized window of `img` at (x, y), interleaved, wrapping around
+/// its edges (which only a tileable canvas needs: others hold every block).
 fn window(img: &Image, x: usize, y: usize, bw: usize, bh: usize) -> Vec<f32> {
-    img.crop(x, y, bw, bh).expect("blocks lie inside the canvas").into_data()
+    let (w, h) = img.size();
+    if x + bw <= w && y + bh <= h {
+        return img.crop(x, y, bw, bh).expect("inside").into_data();
+    }
+    Image::from_fn(bw, bh, img.channels(), |xx, yy, p| p.copy_from_slice(img.pixel((x + xx) % w, (y + yy) % h))).into_data()
+}
+
+/// Block positions along one side: every `step` (the canvas holds them all),
+/// or, tileable, `count` spread evenly over `side` so that the last block
+/// overlaps the first across the edge (overlaps then differ by at most 1).
+fn positions(side: usize, count: usize, step: usize, wrap: bool) -> Vec<usize> {
+    (0..count).map(|j| if wrap { j * side / count } else { j * step }).collect()
 }
 
 /// Minimum-error cut through an error surface of `cols` x `rows` (row-major),
@@ -373,20 +403,66 @@ struct Pass<'a> {
     seed: u64,
     /// Source mask: which block placements lie wholly on allowed pixels.
     usable: Option<Vec<bool>>,
+    /// Tileable: the canvas is the output and wraps around.
+    wrap: bool,
+}
+
+/// The strips of a block already covered when it is placed, where its cuts
+/// run: left and top (its neighbours), and, tileable, right and bottom (the
+/// first column and row, across the edges).
+#[derive(Clone, Copy, Debug, Default)]
+struct Strips {
+    left: usize,
+    top: usize,
+    right: usize,
+    bottom: usize,
+}
+
+impl Strips {
+    fn any(&self) -> bool {
+        self.left + self.top + self.right + self.bottom > 0
+    }
+    fn contains(&self, x: usize, y: usize, (bw, bh): (usize, usize)) -> bool {
+        x < self.left || y < self.top || x + self.right >= bw || y + self.bottom >= bh
+    }
 }
 
 impl Pass<'_> {
     fn run(&self, width: usize, height: usize, progress: &dyn Fn(usize, usize)) -> QuiltPlan {
         let (bw, bh) = self.block;
-        let (nx, ny) = grid(width, height, self.block, self.overlap);
+        let (nx, ny) = grid(width, height, self.block, self.overlap, self.wrap);
         let (stx, sty) = (bw - self.overlap.0, bh - self.overlap.1);
-        let mut canvas = Image::new(nx * stx + self.overlap.0, ny * sty + self.overlap.1, self.source.channels());
+        let (xs, ys) = (positions(width, nx, stx, self.wrap), positions(height, ny, sty, self.wrap));
+        let mut canvas = if self.wrap {
+            Image::new(width, height, self.source.channels())
+        } else {
+            Image::new(nx * stx + self.overlap.0, ny * sty + self.overlap.1, self.source.channels())
+        };
         let mut placements = Vec::with_capacity(nx * ny);
         let mut usage = Usage::new(self.source.size(), self.block);
         let waves = 2 * (ny - 1) + (nx - 1) + 1;
         for wave in 0..waves {
             let blocks: Vec<(usize, usize)> = (0..ny).filter_map(|i| wave.checked_sub(2 * i).filter(|&j| j < nx).map(|j| (i, j))).collect();
-            let planned: Vec<Placement> = blocks.par_iter().map(|&(i, j)| self.place(&canvas, &usage, i, j, nx)).collect();
+            let planned: Vec<Placement> = blocks
+                .par_iter()
+                .map(|&(i, j)| {
+                    let strips = if self.wrap {
+                        Strips {
+                            left: if j > 0 { xs[j - 1] + bw - xs[j] } else { 0 },
+                            top: if i > 0 { ys[i - 1] + bh - ys[i] } else { 0 },
+                            right: if j + 1 == nx { xs[j] + bw - width } else { 0 },
+                            bottom: if i + 1 == ny { ys[i] + bh - height } else { 0 },
+                        }
+                    } else {
+                        Strips {
+                            left: if j > 0 { self.overlap.0 } else { 0 },
+                            top: if i > 0 { self.overlap.1 } else { 0 },
+                            ..Strips::default()
+                        }
+                    };
+                    self.place(&canvas, &usage, (xs[j], ys[i]), strips, (i * nx + j) as u64)
+                })
+                .collect();
             for p in planned {
                 paste(&mut canvas, self.source, &p, self.block);
                 usage.add(p.source_x, p.source_y);
@@ -394,17 +470,15 @@ impl Pass<'_> {
             }
             progress(placements.len(), nx * ny);
         }
-        QuiltPlan { width, height, source_size: self.source.size(), block: self.block, overlap: self.overlap, placements }
+        QuiltPlan { width, height, source_size: self.source.size(), block: self.block, overlap: self.overlap, placements, wrap: self.wrap }
     }
 
-    /// Choose the source block for grid cell (i, j) and its seam.
-    fn place(&self, canvas: &Image, usage: &Usage, i: usize, j: usize, nx: usize) -> Placement {
+    /// Choose the source block pasted at (x, y), whose `strips` are
+    /// already covered, and its seam (`cell` seeds its random choice).
+    fn place(&self, canvas: &Image, usage: &Usage, (x, y): (usize, usize), strips: Strips, cell: u64) -> Placement {
         let (bw, bh) = self.block;
-        let (ow, oh) = self.overlap;
-        let (x, y) = (j * (bw - ow), i * (bh - oh));
-        let (left, top) = (j > 0, i > 0);
-        let mut g = rng::generator(self.seed, &[(i * nx + j) as u64]);
-        let overlap_mask: Vec<f32> = (0..bw * bh).map(|k| if (left && k % bw < ow) || (top && k / bw < oh) { 1.0 } else { 0.0 }).collect();
+        let mut g = rng::generator(self.seed, &[cell]);
+        let overlap_mask: Vec<f32> = (0..bw * bh).map(|k| if strips.contains(k % bw, k / bw, self.block) { 1.0 } else { 0.0 }).collect();
         let full = vec![1.0f32; bw * bh];
         let m_sum: f32 = overlap_mask.iter().sum();
         let area = (bw * bh) as f32;
@@ -453,7 +527,7 @@ impl Pass<'_> {
             };
             self.choose(&costs, vw, vh, exact, &mut g)
         };
-        let keep = self.seam(canvas, x, y, sx, sy, left, top);
+        let keep = self.seam(canvas, (x, y), (sx, sy), strips);
         Placement { x, y, source_x: sx, source_y: sy, keep }
     }
 
@@ -487,46 +561,58 @@ impl Pass<'_> {
         (pick % vw, pick / vw)
     }
 
-    /// Per-pixel keep weights for a block from (sx, sy) pasted at (x, y).
-    #[allow(clippy::too_many_arguments)]
-    fn seam(&self, canvas: &Image, x: usize, y: usize, sx: usize, sy: usize, left: bool, top: bool) -> Vec<f32> {
+    /// Per-pixel keep weights for a block from (sx, sy) pasted at (x, y):
+    /// a minimum-error cut through each covered strip (the old content kept
+    /// on its outer side), or linear ramps across them without the cut.
+    fn seam(&self, canvas: &Image, (x, y): (usize, usize), (sx, sy): (usize, usize), strips: Strips) -> Vec<f32> {
         let (bw, bh) = self.block;
-        let (ow, oh) = self.overlap;
+        let (cw, ch) = canvas.size();
         let mut keep = vec![1.0f32; bw * bh];
         let err = |xx: usize, yy: usize| -> f32 {
-            let a = canvas.pixel(x + xx, y + yy);
+            let a = canvas.pixel((x + xx) % cw, (y + yy) % ch);
             let b = self.source.pixel(sx + xx, sy + yy);
             a.iter().zip(b).zip(self.weights).map(|((p, q), w)| w * (p - q) * (p - q)).sum()
         };
+        let Strips { left, top, right, bottom } = strips;
         if self.params.boundary_cut {
-            if left {
-                let e: Vec<f32> = (0..bh * ow).map(|k| err(k % ow, k / ow)).collect();
-                for (yy, cut) in vertical_cut(&e, ow, bh).into_iter().enumerate() {
+            if left > 0 {
+                let e: Vec<f32> = (0..bh * left).map(|k| err(k % left, k / left)).collect();
+                for (yy, cut) in vertical_cut(&e, left, bh).into_iter().enumerate() {
                     keep[yy * bw..yy * bw + cut].iter_mut().for_each(|v| *v = 0.0);
                 }
             }
-            if top {
+            if top > 0 {
                 // Transpose: the horizontal cut is a vertical cut of the transposed strip.
-                let e: Vec<f32> = (0..bw * oh).map(|k| err(k / oh, k % oh)).collect();
-                for (xx, cut) in vertical_cut(&e, oh, bw).into_iter().enumerate() {
+                let e: Vec<f32> = (0..bw * top).map(|k| err(k / top, k % top)).collect();
+                for (xx, cut) in vertical_cut(&e, top, bw).into_iter().enumerate() {
                     for yy in 0..cut {
                         keep[yy * bw + xx] = 0.0;
                     }
                 }
             }
-            if self.params.feather > 0 && (left || top) {
-                keep = feathered(&keep, bw, bh, self.params.feather, |x, y| (left && x < ow) || (top && y < oh));
+            if right > 0 {
+                // Mirrored: the old content (the first column) lies right of the cut.
+                let e: Vec<f32> = (0..bh * right).map(|k| err(bw - 1 - k % right, k / right)).collect();
+                for (yy, cut) in vertical_cut(&e, right, bh).into_iter().enumerate() {
+                    keep[yy * bw + bw - cut..(yy + 1) * bw].iter_mut().for_each(|v| *v = 0.0);
+                }
+            }
+            if bottom > 0 {
+                let e: Vec<f32> = (0..bw * bottom).map(|k| err(k / bottom, bh - 1 - k % bottom)).collect();
+                for (xx, cut) in vertical_cut(&e, bottom, bw).into_iter().enumerate() {
+                    for yy in bh - cut..bh {
+                        keep[yy * bw + xx] = 0.0;
+                    }
+                }
+            }
+            if self.params.feather > 0 && strips.any() {
+                keep = feathered(&keep, bw, bh, self.params.feather, |x, y| strips.contains(x, y, self.block));
             }
         } else {
+            let ramp = |d: usize, width: usize| if d < width { (d + 1) as f32 / (width + 1) as f32 } else { 1.0 };
             for yy in 0..bh {
                 for xx in 0..bw {
-                    let mut k = 1.0;
-                    if left && xx < ow {
-                        k *= (xx + 1) as f32 / (ow + 1) as f32;
-                    }
-                    if top && yy < oh {
-                        k *= (yy + 1) as f32 / (oh + 1) as f32;
-                    }
+                    let k = ramp(xx, left) * ramp(yy, top) * ramp(bw - 1 - xx, right) * ramp(bh - 1 - yy, bottom);
                     keep[yy * bw + xx] = k;
                 }
             }
@@ -561,6 +647,7 @@ fn feathered(keep: &[f32], bw: usize, bh: usize, r: usize, band: impl Fn(usize, 
 impl Synthesis<'_> {
     /// Synthesize by image quilting; with guides, by texture transfer.
     pub fn quilt(&self, params: &QuiltParams) -> Result<Quilted> {
+        self.check_tileable()?;
         self.with_lighting(|s| s.quilt_as_is(params), |r| (&mut r.image, &mut r.lighting))
     }
 
@@ -570,6 +657,12 @@ impl Synthesis<'_> {
         let (w, h) = self.validate(block.0.min(block.1))?;
         if self.fill.is_some() {
             return Err(Error::invalid("quilting does not fill holes; use texture optimization"));
+        }
+        if self.tileable && (w < block.0 || h < block.1) {
+            return Err(Error::invalid(format!(
+                "a tileable {w}x{h} output must be at least one {}x{} block on each side",
+                block.0, block.1
+            )));
         }
         let metric = self.metric.clone().unwrap_or_else(|| super::PatchMetric::mean_ssd(src.channels()));
         let weights = metric.ssd_weights().ok_or_else(|| Error::invalid("quilting needs a weighted-SSD metric"))?;
@@ -584,8 +677,9 @@ impl Synthesis<'_> {
             let shrink = (2.0f32 / 3.0).powi(pass as i32);
             let pblock = (((block.0 as f32 * shrink) as usize).max(3), ((block.1 as f32 * shrink) as usize).max(3));
             let poverlap = if pass == 0 { overlap } else { ((pblock.0 / 6).max(1), (pblock.1 / 6).max(1)) };
-            let (nx, ny) = grid(w, h, pblock, poverlap);
-            let canvas = (nx * (pblock.0 - poverlap.0) + poverlap.0, ny * (pblock.1 - poverlap.1) + poverlap.1);
+            let (nx, ny) = grid(w, h, pblock, poverlap, self.tileable);
+            let canvas =
+                if self.tileable { (w, h) } else { (nx * (pblock.0 - poverlap.0) + poverlap.0, ny * (pblock.1 - poverlap.1) + poverlap.1) };
             let alpha = if passes > 1 {
                 0.8 * pass as f32 / (passes - 1) as f32 + 0.1
             } else if guided.is_some() {
@@ -605,6 +699,7 @@ impl Synthesis<'_> {
                 params,
                 seed: rng::derive(self.seed, &[pass as u64]),
                 usable: self.source_mask.map(|m| usable_placements(m, pblock)),
+                wrap: self.tileable,
             };
             if pass_state.usable.as_ref().is_some_and(|u| !u.contains(&true)) {
                 return Err(Error::invalid(format!("no {}x{} block lies wholly inside the allowed source region", pblock.0, pblock.1)));
@@ -621,7 +716,9 @@ impl Synthesis<'_> {
         let plan = plan.expect("at least one pass");
         // Texture transfer's seams separate what the guides asked for (two
         // materials side by side): blending would wash that out.
-        let image = if params.blend && params.boundary_cut && guided.is_none() {
+        // The gradient-domain blend's solve does not wrap: tileable quilts
+        // keep their cuts (texture optimization heals them on the torus).
+        let image = if params.blend && params.boundary_cut && guided.is_none() && !self.tileable {
             plan.render_seamless(src)?
         } else {
             previous.expect("at least one pass")
