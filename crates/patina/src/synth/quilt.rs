@@ -525,7 +525,7 @@ impl Pass<'_> {
                 }
                 e * reuse
             };
-            self.choose(&costs, vw, vh, exact, &mut g, strips.right + strips.bottom > 0)
+            self.choose(&costs, vw, vh, exact, &mut g)
         };
         let keep = self.seam(canvas, (x, y), (sx, sy), strips);
         Placement { x, y, source_x: sx, source_y: sy, keep }
@@ -534,7 +534,7 @@ impl Pass<'_> {
     /// Pick a placement: local minima of `costs` within tolerance of the best
     /// (re-scored exactly, with the reuse penalty), never fewer than
     /// `min_candidates`.
-    fn choose(&self, costs: &[f32], vw: usize, vh: usize, exact: impl Fn(usize, usize) -> f32, g: &mut impl Rng, closing: bool) -> (usize, usize) {
+    fn choose(&self, costs: &[f32], vw: usize, vh: usize, exact: impl Fn(usize, usize) -> f32, g: &mut impl Rng) -> (usize, usize) {
         let mut minima: Vec<(f32, usize)> = Vec::new();
         for y in 0..vh {
             for x in 0..vw {
@@ -557,9 +557,7 @@ impl Pass<'_> {
         let best = scored[0].0;
         let limit = best * (1.0 + self.params.tolerance);
         let n = scored.iter().take_while(|(e, _)| *e <= limit).count().max(k.min(scored.len()));
-        // A block closing a tileable quilt (cut against the first row or
-        // column too) has the most to match: it takes the best.
-        let pick = if closing { scored[0].1 } else { scored[g.gen_range(0..n)].1 };
+        let pick = scored[g.gen_range(0..n)].1;
         (pick % vw, pick / vw)
     }
 
