@@ -176,6 +176,7 @@ fn a_tileable_enlargement_repeats_without_seams_at_every_time() {
     let plain = enlarge(&captured, (160, 160), &EnlargeParams::default(), None, 3, None).unwrap();
     for t in [0.0, 0.5, 1.0] {
         let (a, b) = (edge_step(&basecolor(&tiled, t)), edge_step(&basecolor(&plain, t)));
+        // Measured over seeds 1-6 and these times: 0.65-1.28 (plain 4.5-8.4).
         assert!(a < 1.4, "t = {t}: the tile's edges step {a:.2}x the mean neighbour step");
         assert!(b > 1.5 * a, "t = {t}: the check cannot tell a plain enlargement ({b:.2}) from a tileable one ({a:.2})");
     }
