@@ -113,7 +113,9 @@ pub fn run(args: Args) -> Result<()> {
     manifest.timings_ms.insert("load".into(), clock.lap());
 
     let synthesized = match &exemplar {
-        Some(ex) => Some(with_bar("texture", |report| texture::from_exemplar(ex, photo.width(), photo.height(), args.seed, Some(report)))?),
+        Some(ex) => {
+            Some(with_bar("texture", |report| texture::from_exemplar(ex, photo.width(), photo.height(), args.seed, false, Some(report)))?)
+        }
         None => None,
     };
     let inputs_lib = Inputs { mask: mask.as_ref(), texture: synthesized.as_ref(), degree: painting.as_ref(), rate: rate.as_ref() };
@@ -188,6 +190,10 @@ pub struct TextureArgs {
     /// Also write the onset channel (the degree at which each texel appears) here.
     #[arg(long)]
     pub onset: Option<PathBuf>,
+    /// Make the texture (and its onset) tile seamlessly; needs --exemplar (a procedural texture is a window of an
+    /// infinite one: continue it with --offset instead).
+    #[arg(long, requires = "exemplar")]
+    pub tile: bool,
     /// Output image (.png or .exr).
     #[arg(short, long)]
     pub out: PathBuf,
@@ -209,7 +215,7 @@ pub fn run_texture(args: TextureArgs) -> Result<()> {
                 return Err(Error::invalid("--offset applies to procedural textures, not to --exemplar"));
             }
             let ex = crate::input::load(path)?;
-            with_bar("texture", |report| texture::from_exemplar(&ex, w, h, args.seed, Some(report)))?
+            with_bar("texture", |report| texture::from_exemplar(&ex, w, h, args.seed, args.tile, Some(report)))?
         }
         None => texture::generate(args.class, args.seed, args.offset.0, args.offset.1, w, h)?,
     };
@@ -225,6 +231,7 @@ pub fn run_texture(args: TextureArgs) -> Result<()> {
         "size": [w, h],
         "offset": [args.offset.0, args.offset.1],
         "source": if args.exemplar.is_some() { "exemplar" } else { "procedural" },
+        "tile": args.tile,
         "style": decay::Style::draw(args.seed),
     });
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();

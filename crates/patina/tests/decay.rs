@@ -277,3 +277,40 @@ fn the_visible_decay_grows_evenly_over_the_frames() {
         assert!((0.5 / 7.0..=2.0 / 7.0).contains(&step), "uneven growth: {shares:?}");
     }
 }
+
+/// Per channel group (colour, onset): the mean step across the texture's
+/// left/right and top/bottom edges over the mean step between neighbours.
+fn edge_steps(tex: &Image) -> (f32, f32) {
+    let (w, h) = tex.size();
+    let step = |range: std::ops::Range<usize>, a: (usize, usize), b: (usize, usize)| {
+        range.map(|c| (tex.at(a.0, a.1, c) - tex.at(b.0, b.1, c)).abs()).sum::<f32>()
+    };
+    let ratio = |range: std::ops::Range<usize>| {
+        let across: f32 = (0..h).map(|y| step(range.clone(), (w - 1, y), (0, y))).sum::<f32>()
+            + (0..w).map(|x| step(range.clone(), (x, h - 1), (x, 0))).sum::<f32>();
+        let inside: f32 =
+            (0..h).flat_map(|y| (0..w - 1).map(move |x| (x, y))).map(|(x, y)| step(range.clone(), (x, y), (x + 1, y))).sum::<f32>()
+                + (0..h - 1).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| step(range.clone(), (x, y), (x, y + 1))).sum::<f32>();
+        (across / (w + h) as f32) / (inside / (2 * w * h - w - h) as f32)
+    };
+    (ratio(0..3), ratio(3..4))
+}
+
+#[test]
+fn an_exemplar_texture_can_tile_colour_and_onset() {
+    use patina::decay::texture::from_exemplar;
+    let exemplar = generate(DecayClass::Rust, 4, 0, 0, 96, 96).unwrap().select_channels(0..3);
+    let tiled = from_exemplar(&exemplar, 144, 128, 2, true, None).unwrap();
+    let plain = from_exemplar(&exemplar, 144, 128, 2, false, None).unwrap();
+    let ((tc, to), (pc, po)) = (edge_steps(&tiled), edge_steps(&plain));
+    assert!(tc < 1.6 && to < 1.5, "tileable: steps across the edges {tc:.2} (colour), {to:.2} (onset) of the mean");
+    assert!(pc > 1.5 * tc && po > 3.0 * to, "the check cannot tell plain ({pc:.2}, {po:.2}) from tileable ({tc:.2}, {to:.2})");
+    // The onset keeps its contrast where the four copies blend (the middle).
+    let std = |img: &Image, x0: usize, y0: usize| {
+        let v: Vec<f32> = (y0..y0 + 32).flat_map(|y| (x0..x0 + 32).map(move |x| (x, y))).map(|(x, y)| img.at(x, y, 3)).collect();
+        let m = v.iter().sum::<f32>() / v.len() as f32;
+        (v.iter().map(|a| (a - m) * (a - m)).sum::<f32>() / v.len() as f32).sqrt()
+    };
+    let (middle, corner) = (std(&tiled, 56, 48), std(&tiled, 0, 0));
+    assert!(middle > 0.4 * corner, "the onset flattens where the copies blend: std {middle:.3} against {corner:.3} at a corner");
+}
