@@ -140,7 +140,13 @@ fn stbrdf_demo(dir: &Path, seed: u64) -> Result<()> {
 fn run_command(argv: &[&OsStr]) -> Result<()> {
     let cli = crate::Cli::try_parse_from(std::iter::once(OsStr::new("patina")).chain(argv.iter().copied()))
         .map_err(|e| Error::Internal(format!("demo arguments: {e}")))?;
-    crate::dispatch(cli.command)
+    // The subcommand writes into the demo's staging folder: its own
+    // summary would name that, not where the output ends up.
+    use std::sync::atomic::Ordering;
+    crate::output::QUIET.store(true, Ordering::Relaxed);
+    let result = crate::dispatch(cli.command);
+    crate::output::QUIET.store(false, Ordering::Relaxed);
+    result
 }
 
 /// A procedural rusting-steel time-lapse (96 x 96, 40 frames) enlarged to

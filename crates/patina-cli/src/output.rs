@@ -273,10 +273,14 @@ pub fn save(img: &Image, path: impl AsRef<Path>, depth: BitDepth) -> Result<()> 
     Ok(())
 }
 
+/// Set while `patina demo` runs a subcommand into its staging folder: the
+/// demo says where everything went once it is in place.
+pub static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// Print a run's closing summary line on stderr (not in embedded runs,
-/// whose caller gets the manifest instead).
+/// whose caller gets the manifest instead, nor inside the demo).
 pub fn summary(line: String) {
-    if !crate::embed::active() {
+    if !crate::embed::active() && !QUIET.load(std::sync::atomic::Ordering::Relaxed) {
         eprintln!("{line}");
     }
 }
