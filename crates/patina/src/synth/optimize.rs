@@ -309,7 +309,6 @@ impl Synthesis<'_> {
             let hole = hole_pyr.as_ref().map(|p| &p[level]);
             let search = hole.map(|m| m.dilate(r));
             let torus = self.tileable.then(|| Torus::new(tw, th, r));
-
             let coarsest = level == levels - 1;
             match (&start_pyr, coarsest) {
                 // Start from the given image: search before the first vote.
