@@ -150,6 +150,12 @@ fn counts_and_numbers_are_bounded_before_any_work() {
         (vec!["weather", i, "-o", o, "--span", "inf"], "finite"),
         (vec!["weather", i, "-o", o, "--discard", "-0.5"], "outside"),
         (vec!["stone", i, "-o", o, "--times", "0,nan"], "finite"),
+        (vec!["ttf", s(&dir), "-o", o, "--chunk", "4/3"], "chunk"),
+        (vec!["ttf", s(&dir), "-o", o, "--chunk", "0/3"], "chunk"),
+        (vec!["ttf", s(&dir), "-o", o, "--chunk", "three"], "chunk"),
+        (vec!["synth", i, "-o", p, "--tile", "--relight", "stretch"], "tileable"),
+        (vec!["synth", i, "-o", p, "--tile", "--size", "4x4", "--method", "quilt"], "tileable"),
+        (vec!["decay-texture", "-o", p, "--tile"], "--exemplar"),
     ] {
         refused(&dir, &args, needle);
     }
