@@ -56,6 +56,10 @@ pub struct Args {
     /// Join blocks with the paper's cut only: no gradient-domain blending of the seams.
     #[arg(long)]
     pub no_blend: bool,
+    /// Make every frame tile seamlessly (its left edge continues its right and its top its bottom): the time columns
+    /// are quilted round a torus; the seams are then not blended (the blend does not wrap); not with --lighting stretch.
+    #[arg(long)]
+    pub tile: bool,
     /// Reuse penalty: a block's cost grows by this factor for every block already taken from around the same input spot (0 = off, the paper); fewer repeated features, at the price of more events per area.
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub reuse: f32,
@@ -226,6 +230,7 @@ pub fn run(args: Args) -> Result<()> {
         jitter: args.jitter,
         lighting: args.lighting.into(),
         balance: !args.no_balance,
+        tile: args.tile,
     };
     let total = ttf::output_frames(&frames, size, &params, rate.as_ref())?;
     let chunk = args.chunk.map(|c| chunk_range(c, total));

@@ -244,3 +244,32 @@ fn chunks_are_the_whole_runs_frames_byte_for_byte() {
         assert!(e.is_usage() && e.to_string().contains("21 frames"), "{e}");
     }
 }
+
+/// The mean step across a frame's left/right and top/bottom edges (where a
+/// tiling joins) over the mean step between neighbours.
+fn edge_step(img: &Image) -> f32 {
+    let (w, h) = img.size();
+    let d = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(p, q)| (p - q).abs()).sum::<f32>();
+    let across = (0..h).map(|y| d(img.pixel(w - 1, y), img.pixel(0, y))).sum::<f32>()
+        + (0..w).map(|x| d(img.pixel(x, h - 1), img.pixel(x, 0))).sum::<f32>();
+    let inside = (0..h).flat_map(|y| (0..w - 1).map(move |x| (x, y))).map(|(x, y)| d(img.pixel(x, y), img.pixel(x + 1, y))).sum::<f32>()
+        + (0..h - 1).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| d(img.pixel(x, y), img.pixel(x, y + 1))).sum::<f32>();
+    (across / (w + h) as f32) / (inside / (2 * w * h - w - h) as f32)
+}
+
+#[test]
+fn tileable_time_lapses_tile_in_every_frame() {
+    let input = rusting_timelapse(64, 64, 12, 9);
+    let tiled = run(&input, (112, 96), &TtfParams { tile: true, ..TtfParams::default() }, None, 4);
+    let plain = run(&input, (112, 96), &TtfParams::default(), None, 4);
+    assert!(tiled.plan.wrap && !plain.plan.wrap);
+    for t in [0, 6, 11] {
+        let (a, b) = (edge_step(&tiled.frames[t]), edge_step(&plain.frames[t]));
+        // Measured (seed 4): 0.36-1.18 tileable, 7.0-9.6 plain.
+        assert!(a < 2.0, "frame {t}: the tile's edges step {a:.2}x the mean neighbour step");
+        assert!(b > 1.5 * a, "frame {t}: the check cannot tell plain ({b:.2}) from tileable ({a:.2})");
+    }
+    let stretched = TtfParams { tile: true, lighting: patina::ttf::SequenceLighting::Stretch, ..TtfParams::default() };
+    let e = synthesize(&input, (112, 96), &stretched, None, 4, None).unwrap_err();
+    assert!(e.is_usage() && e.to_string().contains("tileable"), "{e}");
+}

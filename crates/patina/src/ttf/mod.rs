@@ -109,6 +109,11 @@ pub struct TtfParams {
     /// Weight each frame's share of the block cost by the inverse of its
     /// fine-detail contrast (not in the paper; see [`frame_balance`]).
     pub balance: bool,
+    /// Make every frame tile: the time columns are quilted round a torus
+    /// ([`crate::synth::Synthesis::tileable`]). The seams' gradient-domain
+    /// blend does not wrap, so tileable runs keep the cuts; lighting can be
+    /// flat or kept, not stretched.
+    pub tile: bool,
 }
 
 impl Default for TtfParams {
@@ -120,6 +125,7 @@ impl Default for TtfParams {
             jitter: None,
             lighting: SequenceLighting::Auto,
             balance: true,
+            tile: false,
         }
     }
 }
@@ -233,6 +239,11 @@ pub fn synthesize_chunk(
         }
         SequenceLighting::Auto => Relight::Keep,
     };
+    if params.tile && matches!(relight, Relight::Stretch) {
+        return Err(Error::invalid(
+            "a tileable time-lapse cannot take the input's stretched lighting, which does not wrap; use flat or keep",
+        ));
+    }
     let separated = if matches!(relight, Relight::Keep) { None } else { Some(separate_sequence(frames)?) };
     let frames = separated.as_ref().map_or(frames, |(_, detail)| detail.as_slice());
     let weights = if params.balance { frame_balance(frames) } else { vec![1.0; n] };
@@ -259,6 +270,7 @@ pub fn synthesize_chunk(
         .metric(metric)
         .seed(rng::derive(seed, &[1]))
         .progress(&quilt_progress)
+        .tileable(params.tile)
         .quilt(&quilt)?;
     drop(features);
     let plan = quilted.plan;
@@ -288,7 +300,7 @@ pub fn synthesize_chunk(
     // rate-warped block is continued across its seam with that frame's
     // gradients, not its own warped time's; these differ only slightly,
     // and the brightness steps are what the blend removes.
-    let corrections: Vec<(usize, Vec<f32>)> = if params.quilt.blend && params.quilt.boundary_cut {
+    let corrections: Vec<(usize, Vec<f32>)> = if params.quilt.blend && params.quilt.boundary_cut && !params.tile {
         let positions = plan.source_positions();
         let mut keys: Vec<usize> = (0..out_frames).step_by(KEY_STEP).collect();
         if keys.last() != Some(&(out_frames - 1)) {
