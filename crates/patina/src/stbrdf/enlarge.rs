@@ -172,10 +172,10 @@ pub fn enlarge(
         Illumination::Auto => Illumination::Keep,
         chosen => chosen,
     };
-    if params.tileable && illumination == Illumination::Stretch {
-        return Err(Error::invalid(
-            "a tileable material cannot take the capture's stretched lighting, which does not wrap; use flat or keep",
-        ));
+    // How the result is re-lit once synthesized, when the light is removed.
+    let how = if illumination == Illumination::Stretch { Relight::Stretch } else { Relight::Flat };
+    if params.tileable {
+        how.check_tileable("material", "capture's")?;
     }
     let separation = match (&diffuse, illumination) {
         (Some(kd), Illumination::Flat | Illumination::Stretch) => {
@@ -215,7 +215,6 @@ pub fn enlarge(
     let mut result = Material::new(material.degree, material.params.clone(), out)?;
     result.encoding = material.encoding;
     if let Some((kd, sep)) = separation {
-        let how = if illumination == Illumination::Stretch { Relight::Stretch } else { Relight::Flat };
         let mean = || {
             let avg = luminance(&time_average(&result, kd.clone()));
             avg.data().iter().map(|&v| v as f64).sum::<f64>() as f32 / avg.data().len().max(1) as f32

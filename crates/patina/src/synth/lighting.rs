@@ -33,6 +33,20 @@ pub enum Relight<'a> {
     Image(&'a Image),
 }
 
+impl Relight<'_> {
+    /// Refuse this re-lighting for a tileable result (`what`, e.g. "output")
+    /// when it cannot wrap: a stretched field of the `whose` lighting (e.g.
+    /// "exemplar's") has a ramp or vignette that does not.
+    pub fn check_tileable(&self, what: &str, whose: &str) -> Result<()> {
+        if matches!(self, Relight::Stretch) {
+            return Err(Error::invalid(format!(
+                "a tileable {what} cannot take the {whose} stretched lighting, which does not wrap; use flat or keep"
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// What the separation removed, for manifests.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct LightingReport {

@@ -223,11 +223,7 @@ impl<'a> Synthesis<'a> {
                     "a tileable output cannot fill a hole or start from an image: their fixed content does not wrap",
                 ));
             }
-            if matches!(self.relight, super::lighting::Relight::Stretch) {
-                return Err(Error::invalid(
-                    "a tileable output cannot take the exemplar's stretched lighting, which does not wrap; use flat or keep",
-                ));
-            }
+            self.relight.check_tileable("output", "exemplar's")?;
         }
         Ok(())
     }

@@ -410,7 +410,7 @@ struct Pass<'a> {
 /// The strips of a block already covered when it is placed, where its cuts
 /// run: left and top (its neighbours), and, tileable, right and bottom (the
 /// first column and row, across the edges).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 struct Strips {
     left: usize,
     top: usize,
@@ -446,19 +446,14 @@ impl Pass<'_> {
             let planned: Vec<Placement> = blocks
                 .par_iter()
                 .map(|&(i, j)| {
-                    let strips = if self.wrap {
-                        Strips {
-                            left: if j > 0 { xs[j - 1] + bw - xs[j] } else { 0 },
-                            top: if i > 0 { ys[i - 1] + bh - ys[i] } else { 0 },
-                            right: if j + 1 == nx { xs[j] + bw - width } else { 0 },
-                            bottom: if i + 1 == ny { ys[i] + bh - height } else { 0 },
-                        }
-                    } else {
-                        Strips {
-                            left: if j > 0 { self.overlap.0 } else { 0 },
-                            top: if i > 0 { self.overlap.1 } else { 0 },
-                            ..Strips::default()
-                        }
+                    // Overlaps with the previous block of the row and column
+                    // (the given overlap, unless tileable spacing varies it),
+                    // and, tileable, with the first ones across the edges.
+                    let strips = Strips {
+                        left: if j > 0 { xs[j - 1] + bw - xs[j] } else { 0 },
+                        top: if i > 0 { ys[i - 1] + bh - ys[i] } else { 0 },
+                        right: if self.wrap && j + 1 == nx { xs[j] + bw - width } else { 0 },
+                        bottom: if self.wrap && i + 1 == ny { ys[i] + bh - height } else { 0 },
                     };
                     self.place(&canvas, &usage, (xs[j], ys[i]), strips, (i * nx + j) as u64)
                 })

@@ -54,9 +54,29 @@ impl Torus {
         out
     }
 
-    /// A padded image's ring set again from its interior.
+    /// The ring's positions in the padded level, each with the padded
+    /// position of the interior pixel it holds.
+    fn ring(&self) -> impl Iterator<Item = ((usize, usize), (usize, usize))> + '_ {
+        let (pw, ph) = self.padded();
+        let r = self.r;
+        (0..ph)
+            .flat_map(move |y| (0..pw).map(move |x| (x, y)))
+            .filter(move |&(x, y)| x < r || y < r || x >= r + self.w || y >= r + self.h)
+            .map(move |(x, y)| {
+                let (sx, sy) = self.wrap(x, y);
+                ((x, y), (sx + r, sy + r))
+            })
+    }
+
+    /// A padded image's ring set again from its interior, in place (once
+    /// per search and vote step, so no whole-level copies).
     pub fn refresh_image(&self, padded: &mut Image) {
-        *padded = self.pad_image(&self.crop_image(padded));
+        let (pw, c) = (padded.width(), padded.channels());
+        let data = padded.data_mut();
+        for ((x, y), (sx, sy)) in self.ring() {
+            let from = (sy * pw + sx) * c;
+            data.copy_within(from..from + c, (y * pw + x) * c);
+        }
     }
 
     /// `field` (over the tile) padded with its own opposite edges' matches.
@@ -78,9 +98,13 @@ impl Torus {
         Nnf::from_matches(self.w, self.h, matches)
     }
 
-    /// A padded field's ring set again from its interior.
+    /// A padded field's ring set again from its interior, in place.
     pub fn refresh_nnf(&self, padded: &mut Nnf) {
-        *padded = self.pad_nnf(&self.crop_nnf(padded));
+        let pw = padded.width();
+        let matches = padded.matches_mut();
+        for ((x, y), (sx, sy)) in self.ring() {
+            matches[y * pw + x] = matches[sy * pw + sx];
+        }
     }
 
     /// The interior of the padded level (where pixels are searched and voted).
@@ -132,6 +156,17 @@ mod tests {
         assert_eq!(pf.get(1, 2).x, 6, "left ring column 1 is the tile's last column");
         assert_eq!(t.crop_nnf(&pf), field);
         assert_eq!(t.interior().count(), 35);
+        // Refreshing the ring after the interior changed is padding anew.
+        let mut changed = p.clone();
+        changed.pixel_mut(2, 2)[0] = 9.0;
+        let want = t.pad_image(&t.crop_image(&changed));
+        t.refresh_image(&mut changed);
+        assert_eq!(changed.data(), want.data());
+        let mut moved = pf.clone();
+        moved.matches_mut()[2 * 11 + 8].x = 99;
+        let want = t.pad_nnf(&t.crop_nnf(&moved));
+        t.refresh_nnf(&mut moved);
+        assert_eq!(moved, want);
         // A tile smaller than the padding still wraps (several times).
         let tiny = Torus::new(2, 2, 3);
         let q = tiny.pad_image(&Image::from_fn(2, 2, 1, |x, y, p| p[0] = (x + 2 * y) as f32));

@@ -239,10 +239,8 @@ pub fn synthesize_chunk(
         }
         SequenceLighting::Auto => Relight::Keep,
     };
-    if params.tile && matches!(relight, Relight::Stretch) {
-        return Err(Error::invalid(
-            "a tileable time-lapse cannot take the input's stretched lighting, which does not wrap; use flat or keep",
-        ));
+    if params.tile {
+        relight.check_tileable("time-lapse", "input's")?;
     }
     let separated = if matches!(relight, Relight::Keep) { None } else { Some(separate_sequence(frames)?) };
     let frames = separated.as_ref().map_or(frames, |(_, detail)| detail.as_slice());
