@@ -136,6 +136,11 @@ pub struct Args {
     /// Keep the cut seams as they are instead of blending them in the gradient domain (quilt).
     #[arg(long)]
     pub no_blend: bool,
+    /// Do not keep a regular structure in phase. By default, when the exemplar repeats regularly (a tile
+    /// grid, brick courses, boards; found by autocorrelation, recorded in the manifest), each block is taken
+    /// only where it continues its neighbours' grid (quilt, and optimize's quilt start).
+    #[arg(long)]
+    pub no_lattice: bool,
     /// Soften each minimum-error seam over this many pixels on either side (quilt; 0 = a hard cut).
     #[arg(long, default_value_t = 0, value_parser = |s: &str| crate::flags::count(s, 0, 64))]
     pub feather: usize,
@@ -175,6 +180,7 @@ impl Args {
                 InitArg::Quilt => Init::Quilt,
             },
             stop_threshold: self.stop_threshold,
+            lattice: !self.no_lattice,
         }
     }
 
@@ -189,6 +195,7 @@ impl Args {
             transfer_passes: self.transfer_passes,
             reuse: self.reuse,
             blend: !self.no_blend,
+            lattice: !self.no_lattice,
         }
     }
 }
@@ -256,6 +263,7 @@ pub fn run(args: Args) -> Result<()> {
                 let texels = (p.patch * p.patch) as f32;
                 manifest.metrics.insert("mean_patch_rms".into(), json!((out.nnf.mean_cost(None) / texels).sqrt()));
                 manifest.metrics.insert("lighting".into(), json!(out.lighting));
+                manifest.metrics.insert("lattice".into(), json!(out.lattice));
                 (out.image, json!({ "method": "optimize", "optimize": p }))
             }
             Method::Quilt => {
@@ -264,6 +272,7 @@ pub fn run(args: Args) -> Result<()> {
                 (p.block, p.overlap) = (Some(out.plan.block), Some(out.plan.overlap));
                 manifest.metrics.insert("blocks".into(), json!(out.plan.placements.len()));
                 manifest.metrics.insert("lighting".into(), json!(out.lighting));
+                manifest.metrics.insert("lattice".into(), json!(out.lattice));
                 (out.image, json!({ "method": "quilt", "quilt": p }))
             }
         })

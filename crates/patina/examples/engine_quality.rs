@@ -11,9 +11,9 @@
 //! `--lit` multiplies each exemplar by a vignette and a lighting ramp first,
 //! `--flat` synthesizes with flat re-lighting;
 //! `--levels N`, `--iters K`, `--patch P`, `--uniformity U` and `--robust`
-//! (robust voting) override the
-//! optimizer's defaults, `--only
-//! NAME` runs one exemplar.
+//! (robust voting) override the optimizer's defaults, `--no-lattice`
+//! turns off keeping regular structure in phase, `--seed S` (default 3)
+//! seeds the run and `--only NAME` runs one exemplar.
 
 mod common;
 
@@ -60,6 +60,9 @@ fn main() {
     if args.iter().any(|a| a == "--robust") {
         optimize.vote = patina::synth::VoteWeights::Robust;
     }
+    let seed = flag("--seed").unwrap_or(3) as u64;
+    let quilt = QuiltParams { lattice: !args.iter().any(|a| a == "--no-lattice"), ..QuiltParams::default() };
+    optimize.lattice = quilt.lattice;
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).cloned();
     let out_dir = args.first().filter(|a| !a.starts_with("--")).cloned().unwrap_or_else(|| "/tmp/patina-engine".into());
     std::fs::create_dir_all(&out_dir).expect("output folder");
@@ -82,10 +85,10 @@ fn main() {
         for method in ["optimize", "quilt"] {
             let t = Instant::now();
             let relight = if args.iter().any(|a| a == "--flat") { patina::synth::Relight::Flat } else { patina::synth::Relight::Keep };
-            let problem = Synthesis::new(&ex).size(size, size).seed(3).relight(relight);
+            let problem = Synthesis::new(&ex).size(size, size).seed(seed).relight(relight);
             let out = match method {
                 "optimize" => problem.optimize(&optimize).expect("optimize").image,
-                _ => problem.quilt(&QuiltParams::default()).expect("quilt").image,
+                _ => problem.quilt(&quilt).expect("quilt").image,
             };
             let ms = t.elapsed().as_secs_f64() * 1000.0;
             let b = metrics::bidirectional(&out, &ex, 5, 1).expect("bidirectional");

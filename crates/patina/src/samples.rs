@@ -205,6 +205,33 @@ pub fn planks(width: usize, height: usize, seed: u64) -> Image {
     })
 }
 
+/// Round tiles on a square grid of `period` px, each disc its own shade of
+/// green with its own blotchy stain, on a darker ground with a light rim:
+/// exactly periodic in layout and different in every cell (the stained
+/// circle tiles of ../shared/data, whose layout synthesis must keep).
+pub fn disc_grid(width: usize, height: usize, period: usize, seed: u64) -> Image {
+    let p = period as f32;
+    Image::from_fn(width, height, 3, |x, y, px| {
+        let (i, j) = ((x / period) as i64, (y / period) as i64);
+        let (u, v) = ((x % period) as f32 + 0.5 - p / 2.0, (y % period) as f32 + 0.5 - p / 2.0);
+        let r = (u * u + v * v).sqrt() / (0.47 * p);
+        let tone = lattice(seed ^ 0xd1, i, j);
+        let stain = fractal_noise(seed ^ 0xd2, x as f32, y as f32, 0.15 * p, 3);
+        let k = 0.35 + 0.65 * tone - 0.5 * stain * lattice(seed ^ 0xd3, i, j);
+        let colour = if r < 0.95 {
+            [0.25 * k, 0.8 * k, 0.45 * k]
+        } else if r < 1.0 {
+            [0.8, 0.78, 0.6]
+        } else {
+            [0.1, 0.3, 0.18]
+        };
+        let grain = 0.05 * (fractal_noise(seed ^ 0xd4, x as f32, y as f32, 2.0, 2) - 0.5);
+        for c in 0..3 {
+            px[c] = (colour[c] + grain).clamp(0.0, 1.0);
+        }
+    })
+}
+
 /// Period, in pixels, of [`tiles`] in both directions.
 pub const TILE_PERIOD: usize = 32;
 

@@ -3,7 +3,7 @@
 
 use patina::metrics::{bidirectional, seam_visibility, self_similarity};
 use patina::samples;
-use patina::synth::{OptimizeParams, QuiltParams, QuiltPlan, Synthesis};
+use patina::synth::{Lattice, OptimizeParams, QuiltParams, QuiltPlan, Synthesis};
 use patina::{Error, Image, Mask};
 
 /// Largest mean of `map` (NaN-free) over `win` x `win` windows, stride 4.
@@ -335,4 +335,59 @@ fn tileable_outputs_continue_across_their_edges() {
     // Measured 1.6 and 6.9: a cut is a step (the quilt has no blend to hide
     // it), and the plain quilt's edges are unrelated pixels.
     assert!(t < 2.2 && p > 3.0 * t, "quilt: step across the edge over the mean step: tileable {t:.2}, plain {p:.2}");
+}
+
+/// Share of output pixels whose source shift (source minus output
+/// position) is within 2 px of a whole number of `period`s from the most
+/// common shift: how much of the output keeps one grid phase.
+fn in_phase_share(shifts: &[(i64, i64)], period: i64) -> f32 {
+    let p = period as usize;
+    let mut counts = vec![0usize; p * p];
+    for &(dx, dy) in shifts {
+        counts[dy.rem_euclid(period) as usize * p + dx.rem_euclid(period) as usize] += 1;
+    }
+    let mode = (0..p * p).max_by_key(|&i| (counts[i], std::cmp::Reverse(i))).unwrap();
+    let off = |d: i64, r: usize| {
+        let e = (d - r as i64).rem_euclid(period);
+        e.min(period - e)
+    };
+    let ok = shifts.iter().filter(|&&(dx, dy)| off(dx, mode % p) <= 2 && off(dy, mode / p) <= 2).count();
+    ok as f32 / shifts.len() as f32
+}
+
+#[test]
+fn a_regular_grid_of_varied_tiles_stays_in_one_phase() {
+    // Round tiles on a 48 px grid, each stained differently: the overlap
+    // cost alone lets blocks split tiles (the stains differ more than the
+    // layout does); kept on the exemplar's lattice, every tile stays whole.
+    let period = 48;
+    let ex = samples::disc_grid(160, 160, period as usize, 2);
+    let (w, h) = (320usize, 320usize);
+    let weights = [1.0 / 3.0; 3];
+    // The optimized output still holds the exemplar's grid.
+    let keeps_grid = |img: &Image| {
+        Lattice::detect(img, &weights).is_some_and(|l| {
+            l.periods.len() == 2 && l.periods.iter().all(|p| ((p[0].powi(2) + p[1].powi(2)).sqrt() - period as f32).abs() < 1.0)
+        })
+    };
+    let (mut on_total, mut off_total) = (0.0, 0.0);
+    for seed in 0..3 {
+        let run = |lattice: bool| {
+            let quilted = Synthesis::new(&ex).size(w, h).seed(seed).quilt(&QuiltParams { lattice, ..QuiltParams::default() }).unwrap();
+            let pos = quilted.plan.source_positions();
+            let shifts: Vec<(i64, i64)> = (0..w * h).map(|i| (pos[i].0 as i64 - (i % w) as i64, pos[i].1 as i64 - (i / w) as i64)).collect();
+            let params = OptimizeParams { lattice, ..OptimizeParams::default() };
+            let optimized = Synthesis::new(&ex).size(w, h).seed(seed).optimize(&params).unwrap().image;
+            (in_phase_share(&shifts, period), keeps_grid(&optimized), quilted.lattice.is_some())
+        };
+        let ((q, grid, found), (qf, grid_off, _)) = (run(true), run(false));
+        eprintln!("seed {seed}: quilt in phase {q:.3} (without the lattice {qf:.3}); optimized keeps the grid {grid} (without {grid_off})");
+        assert!(found, "seed {seed}: no lattice found on the grid");
+        assert!(q >= 0.95, "seed {seed}: only {q:.3} of the quilt in the grid's phase");
+        assert!(grid, "seed {seed}: the optimized output lost the 48 px grid");
+        on_total += q;
+        off_total += qf;
+    }
+    // Without the lattice the quilt splits tiles (the test can tell).
+    assert!(off_total < on_total - 0.5, "the lattice does not help quilting: {on_total:.2} vs {off_total:.2} over 3 seeds");
 }

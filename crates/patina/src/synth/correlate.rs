@@ -277,6 +277,32 @@ impl SpectralSource {
     }
 }
 
+/// Weighted linear autocorrelation of an image's channels,
+/// sum_c w_c sum_p S_c(p) S_c(p + d), for every shift d: an fw x fh array
+/// (fw >= 2 w, fh >= 2 h, so nothing wraps) indexed at
+/// (d_y mod fh) fw + (d_x mod fw). Returns it with (fw, fh).
+pub fn autocorrelation(source: &Image, weights: &[f32]) -> (Vec<f32>, usize, usize) {
+    assert_eq!(weights.len(), source.channels());
+    let (w, h, n) = (source.width(), source.height(), source.channels());
+    let plans = Plans::new(fast_size(2 * w), fast_size(2 * h));
+    let mut scratch = SpectralSource::scratch(&plans);
+    let mut plane = vec![0f32; w * h];
+    let mut spectrum = vec![C32::new(0.0, 0.0); plans.spectrum_len()];
+    let mut power = vec![C32::new(0.0, 0.0); plans.spectrum_len()];
+    for c in (0..n).filter(|&c| weights[c] != 0.0) {
+        for (p, v) in plane.iter_mut().enumerate() {
+            *v = source.data()[p * n + c];
+        }
+        plans.forward(&plane, w, h, &mut spectrum, &mut scratch);
+        for (a, s) in power.iter_mut().zip(&spectrum) {
+            *a += C32::new(weights[c] * s.norm_sqr(), 0.0);
+        }
+    }
+    let mut out = vec![0f32; plans.fw * plans.fh];
+    plans.inverse(&mut power, &mut out, &mut scratch);
+    (out, plans.fw, plans.fh)
+}
+
 /// Exact masked weighted SSD of `template` (kw x kh) at source position (sx, sy).
 pub fn masked_ssd(source: &Image, weights: &[f32], template: &[f32], mask: &[f32], kw: usize, kh: usize, sx: usize, sy: usize) -> f32 {
     let n = source.channels();

@@ -7,11 +7,13 @@
 //! - [`optimize`]: texture optimization (search + vote over a pyramid);
 //!   [`torus`]: its wrap-around working copies for tileable outputs.
 //! - [`correlate`] and [`quilt`]: image quilting with FFT candidate search
-//!   and minimum-error boundary cuts.
+//!   and minimum-error boundary cuts; [`lattice`]: the exemplar's regular
+//!   structure, which quilting keeps aligned.
 
 pub mod blend;
 pub mod correlate;
 pub mod distance;
+pub mod lattice;
 pub mod lighting;
 pub mod nnf;
 pub mod optimize;
@@ -23,6 +25,7 @@ mod torus;
 pub mod vote;
 
 pub use distance::{GroupDistance, PatchMetric, TexelDistance};
+pub use lattice::Lattice;
 pub use lighting::{LightingReport, Relight};
 pub use nnf::{Match, Nnf, SourceDomain};
 pub use optimize::{Init, OptimizeParams, Synthesized};

@@ -42,6 +42,9 @@ pub struct OptimizeParams {
     /// a value that moved by at least this much are searched again (in
     /// value units; EbSynth's 5 of 255). 0 searches every pixel every time.
     pub stop_threshold: f32,
+    /// A quilt start keeps the exemplar's regular structure in phase
+    /// ([`super::QuiltParams::lattice`]).
+    pub lattice: bool,
 }
 
 /// Initial nearest-neighbour field of the coarsest level.
@@ -89,6 +92,7 @@ impl Default for OptimizeParams {
             vote: VoteWeights::Mean,
             init: Init::QuiltSeams,
             stop_threshold: 5.0 / 255.0,
+            lattice: true,
         }
     }
 }
@@ -103,6 +107,8 @@ pub struct Synthesized {
     pub levels: usize,
     /// What lighting-aware synthesis separated, when asked for.
     pub lighting: Option<super::lighting::LightingReport>,
+    /// The regular structure the quilt start kept in phase, if any.
+    pub lattice: Option<super::Lattice>,
 }
 
 /// Smallest coarsest-level side when the pyramid starts from a quilt. The
@@ -178,7 +184,8 @@ impl Synthesis<'_> {
         domain: &SourceDomain,
         seed: u64,
         seams_only: bool,
-    ) -> Result<(Nnf, Mask)> {
+        lattice: bool,
+    ) -> Result<(Nnf, Mask, Option<super::Lattice>)> {
         let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed).tileable(self.tileable);
         if let Some(m) = allowed {
             problem = problem.source_mask(m);
@@ -198,12 +205,13 @@ impl Synthesis<'_> {
             // structure per block, and a 512 -> 4096 quilt has a quarter as
             // many blocks to search for.
             let block = (style.width().min(style.height()) / 4).clamp(8, 128);
-            QuiltParams { block: Some((block, block)), ..QuiltParams::default() }
+            QuiltParams { block: Some((block, block)), lattice, ..QuiltParams::default() }
         } else {
             let block = (style.width().min(style.height()) / 3).max(2 * domain.radius() + 3);
-            QuiltParams { block: Some((block, block)), ..QuiltParams::default() }
+            QuiltParams { block: Some((block, block)), lattice, ..QuiltParams::default() }
         };
-        let plan = problem.quilt(&params)?.plan;
+        let quilted = problem.quilt(&params)?;
+        let plan = quilted.plan;
         let positions = plan.source_positions();
         let seams = cut_lines(&positions, size.0, size.1, self.tileable);
         let matches = positions
@@ -213,7 +221,7 @@ impl Synthesis<'_> {
                 Match { x: cx as u32, y: cy as u32, cost: f32::INFINITY }
             })
             .collect();
-        Ok((Nnf::from_matches(size.0, size.1, matches), seams))
+        Ok((Nnf::from_matches(size.0, size.1, matches), seams, quilted.lattice))
     }
 
     /// Synthesize by texture optimization.
@@ -261,6 +269,7 @@ impl Synthesis<'_> {
         let mut done = 0u64;
         let mut nnf: Option<Nnf> = None;
         let mut seams: Option<Mask> = None;
+        let mut lattice = None;
         let mut target = Image::new(1, 1, 1);
         for level in (0..levels).rev() {
             let (tw, th) = sizes[level];
@@ -290,8 +299,9 @@ impl Synthesis<'_> {
                         let sg = sguide_pyr.as_ref().map(|p| &p[level]);
                         let tg = tguide_pyr.as_ref().map(|p| &p[level]);
                         let allowed = allowed_pyr.as_ref().map(|p| &p[level]);
-                        match self.quilt_field(style, sg, tg, allowed, (tw, th), &domain, level_seed, seams_only) {
-                            Ok((field, overlap)) => {
+                        match self.quilt_field(style, sg, tg, allowed, (tw, th), &domain, level_seed, seams_only, params.lattice) {
+                            Ok((field, overlap, found)) => {
+                                lattice = found;
                                 seams = seams_only.then(|| match self.tileable {
                                     true => Torus::new(tw, th, 2 * r + 2).dilate(&overlap),
                                     false => overlap.dilate(2 * r + 2),
@@ -398,6 +408,6 @@ impl Synthesis<'_> {
         }
         let mut image = target;
         image.set_groups(src.groups().to_vec())?;
-        Ok(Synthesized { image, nnf: nnf.expect("at least one level"), levels, lighting: None })
+        Ok(Synthesized { image, nnf: nnf.expect("at least one level"), levels, lighting: None, lattice })
     }
 }

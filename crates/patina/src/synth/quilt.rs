@@ -27,6 +27,7 @@
 //!   block draws from its own generator.
 
 use super::correlate::{masked_ssd, SpectralSource};
+use super::lattice::Lattice;
 use super::problem::Synthesis;
 use crate::error::{Error, Result};
 use crate::image::summed::SummedArea;
@@ -73,6 +74,13 @@ pub struct QuiltParams {
     /// blocks whose brightness differs meet without a visible step. Not
     /// applied to texture transfer (guided quilting).
     pub blend: bool,
+    /// Keep a regular structure aligned (not in the paper): when the
+    /// exemplar has a [`Lattice`] (a tile grid, brick courses, boards),
+    /// a block is only taken from where it continues its left and top
+    /// neighbours' structure in phase, within the lattice's tolerance. The
+    /// overlap cost alone lets a block that fits its L-shaped overlap shift
+    /// courses or split a tile. Not applied to texture transfer.
+    pub lattice: bool,
 }
 
 impl Default for QuiltParams {
@@ -87,6 +95,7 @@ impl Default for QuiltParams {
             transfer_passes: 3,
             reuse: 1.5,
             blend: true,
+            lattice: true,
         }
     }
 }
@@ -146,6 +155,8 @@ pub struct Quilted {
     pub plan: QuiltPlan,
     /// What lighting-aware synthesis separated, when asked for.
     pub lighting: Option<super::lighting::LightingReport>,
+    /// The regular structure the blocks were kept aligned with, if any.
+    pub lattice: Option<Lattice>,
 }
 
 impl QuiltPlan {
@@ -405,6 +416,8 @@ struct Pass<'a> {
     usable: Option<Vec<bool>>,
     /// Tileable: the canvas is the output and wraps around.
     wrap: bool,
+    /// Blocks are kept in phase with their neighbours on this lattice.
+    lattice: Option<&'a Lattice>,
 }
 
 /// The strips of a block already covered when it is placed, where its cuts
@@ -440,10 +453,12 @@ impl Pass<'_> {
         };
         let mut placements = Vec::with_capacity(nx * ny);
         let mut usage = Usage::new(self.source.size(), self.block);
+        // Per block, its source position minus its canvas position.
+        let mut shifts: Vec<Option<[f32; 2]>> = vec![None; nx * ny];
         let waves = 2 * (ny - 1) + (nx - 1) + 1;
         for wave in 0..waves {
             let blocks: Vec<(usize, usize)> = (0..ny).filter_map(|i| wave.checked_sub(2 * i).filter(|&j| j < nx).map(|j| (i, j))).collect();
-            let planned: Vec<Placement> = blocks
+            let planned: Vec<(usize, Placement)> = blocks
                 .par_iter()
                 .map(|&(i, j)| {
                     // Overlaps with the previous block of the row and column
@@ -455,10 +470,13 @@ impl Pass<'_> {
                         right: if self.wrap && j + 1 == nx { xs[j] + bw - width } else { 0 },
                         bottom: if self.wrap && i + 1 == ny { ys[i] + bh - height } else { 0 },
                     };
-                    self.place(&canvas, &usage, (xs[j], ys[i]), strips, (i * nx + j) as u64)
+                    let neighbours = [(j > 0).then(|| shifts[i * nx + j - 1]), (i > 0).then(|| shifts[(i - 1) * nx + j])];
+                    let p = self.place(&canvas, &usage, (xs[j], ys[i]), strips, neighbours.into_iter().flatten().flatten(), (i * nx + j) as u64);
+                    (i * nx + j, p)
                 })
                 .collect();
-            for p in planned {
+            for (k, p) in planned {
+                shifts[k] = Some([p.source_x as f32 - p.x as f32, p.source_y as f32 - p.y as f32]);
                 paste(&mut canvas, self.source, &p, self.block);
                 usage.add(p.source_x, p.source_y);
                 placements.push(p);
@@ -470,7 +488,15 @@ impl Pass<'_> {
 
     /// Choose the source block pasted at (x, y), whose `strips` are
     /// already covered, and its seam (`cell` seeds its random choice).
-    fn place(&self, canvas: &Image, usage: &Usage, (x, y): (usize, usize), strips: Strips, cell: u64) -> Placement {
+    fn place(
+        &self,
+        canvas: &Image,
+        usage: &Usage,
+        (x, y): (usize, usize),
+        strips: Strips,
+        neighbour_shifts: impl Iterator<Item = [f32; 2]>,
+        cell: u64,
+    ) -> Placement {
         let (bw, bh) = self.block;
         let mut g = rng::generator(self.seed, &[cell]);
         let overlap_mask: Vec<f32> = (0..bw * bh).map(|k| if strips.contains(k % bw, k / bw, self.block) { 1.0 } else { 0.0 }).collect();
@@ -505,6 +531,9 @@ impl Pass<'_> {
             let mut costs = self.spectral.finish(q);
             if let Some(u) = &self.usable {
                 costs.iter_mut().zip(u).filter(|(_, ok)| !**ok).for_each(|(c, _)| *c = f32::INFINITY);
+            }
+            if let Some(lattice) = self.lattice {
+                keep_in_phase(&mut costs, vw, lattice, (x, y), &neighbour_shifts.collect::<Vec<_>>());
             }
             let exact = |sx: usize, sy: usize| {
                 let reuse = 1.0 + self.params.reuse * usage.around(sx, sy);
@@ -616,6 +645,24 @@ impl Pass<'_> {
     }
 }
 
+/// Refuse (cost infinite) every placement whose shift from the canvas
+/// position (x, y) is out of phase, on `lattice`, with any neighbour's
+/// shift; left as it is when that refuses everything (a lattice the
+/// exemplar only roughly keeps).
+fn keep_in_phase(costs: &mut [f32], vw: usize, lattice: &Lattice, (x, y): (usize, usize), neighbours: &[[f32; 2]]) {
+    if neighbours.is_empty() {
+        return;
+    }
+    let tolerance = lattice.tolerance();
+    let in_phase = |i: usize| {
+        let d = [(i % vw) as f32 - x as f32, (i / vw) as f32 - y as f32];
+        neighbours.iter().all(|n| lattice.misalignment([d[0] - n[0], d[1] - n[1]]) <= tolerance)
+    };
+    if (0..costs.len()).any(|i| costs[i].is_finite() && in_phase(i)) {
+        costs.iter_mut().enumerate().filter(|(i, _)| !in_phase(*i)).for_each(|(_, c)| *c = f32::INFINITY);
+    }
+}
+
 /// A 0/1 keep map box-filtered over (2r + 1)^2 (edges replicated), only
 /// where `band` holds: the overlap, where the cut runs.
 fn feathered(keep: &[f32], bw: usize, bh: usize, r: usize, band: impl Fn(usize, usize) -> bool) -> Vec<f32> {
@@ -666,6 +713,8 @@ impl Synthesis<'_> {
         let passes = if guided.is_some() { params.transfer_passes.max(1) } else { 1 };
         let gweights: Vec<f32> = guided.map_or(Vec::new(), |(g, _)| vec![1.0 / g.channels() as f32; g.channels()]);
         let gspectral = guided.map(|(g, _)| SpectralSource::new(g, &gweights));
+        let lattice = if params.lattice && guided.is_none() { Lattice::detect(src, &weights) } else { None };
+        let lattice = lattice.and_then(|l| l.longer_than(block.0.min(block.1) as f32 / 3.0));
         let mut previous: Option<Image> = None;
         let mut plan = None;
         for pass in 0..passes {
@@ -695,6 +744,7 @@ impl Synthesis<'_> {
                 seed: rng::derive(self.seed, &[pass as u64]),
                 usable: self.source_mask.map(|m| usable_placements(m, pblock)),
                 wrap: self.tileable,
+                lattice: lattice.as_ref(),
             };
             if pass_state.usable.as_ref().is_some_and(|u| !u.contains(&true)) {
                 return Err(Error::invalid(format!("no {}x{} block lies wholly inside the allowed source region", pblock.0, pblock.1)));
@@ -718,7 +768,7 @@ impl Synthesis<'_> {
         } else {
             previous.expect("at least one pass")
         };
-        Ok(Quilted { image, plan, lighting: None })
+        Ok(Quilted { image, plan, lighting: None, lattice })
     }
 }
 
