@@ -5,7 +5,7 @@ use crate::progress::with_bar;
 use clap::ValueEnum;
 use patina::image::io::{self, BitDepth};
 use patina::image::Image;
-use patina::synth::{Init, OptimizeParams, QuiltParams, Relight, Synthesis, VoteWeights};
+use patina::synth::{Init, Lattice, OptimizeParams, QuiltParams, Relight, Synthesis, VoteWeights};
 use patina::Result;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -230,6 +230,23 @@ impl GuideArgs {
     }
 }
 
+/// A tileable output of a regular texture closes its grid across the
+/// edges only when its size is a whole number of periods: say which size
+/// nearest the asked one would (the manifest holds the lattice).
+fn tile_fit_note(lattice: &Lattice, size: (usize, usize)) {
+    let fit = lattice.tile_fit(size, 8);
+    if fit != size {
+        crate::output::summary(format!(
+            "note: the exemplar repeats every {}; a {}x{} tile breaks that grid at its edges, {}x{} would close it",
+            lattice.periods.iter().map(|p| format!("({:.1}, {:.1}) px", p[0], p[1])).collect::<Vec<_>>().join(" and "),
+            size.0,
+            size.1,
+            fit.0,
+            fit.1
+        ));
+    }
+}
+
 pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("synth", args.seed);
@@ -245,7 +262,7 @@ pub fn run(args: Args) -> Result<()> {
     let size = args.size.or(guides.as_ref().map(|(_, t)| t.size())).unwrap_or((2 * exemplar.width(), 2 * exemplar.height()));
     manifest.timings_ms.insert("load".into(), clock.lap());
 
-    let (image, mut params) = with_bar("synth", |report| -> Result<_> {
+    let (image, mut params, lattice) = with_bar("synth", |report| -> Result<_> {
         let mut problem = Synthesis::new(&exemplar)
             .size(size.0, size.1)
             .seed(args.seed)
@@ -264,7 +281,7 @@ pub fn run(args: Args) -> Result<()> {
                 manifest.metrics.insert("mean_patch_rms".into(), json!((out.nnf.mean_cost(None) / texels).sqrt()));
                 manifest.metrics.insert("lighting".into(), json!(out.lighting));
                 manifest.metrics.insert("lattice".into(), json!(out.lattice));
-                (out.image, json!({ "method": "optimize", "optimize": p }))
+                (out.image, json!({ "method": "optimize", "optimize": p }), out.lattice)
             }
             Method::Quilt => {
                 let mut p = args.quilt_params();
@@ -273,11 +290,14 @@ pub fn run(args: Args) -> Result<()> {
                 manifest.metrics.insert("blocks".into(), json!(out.plan.placements.len()));
                 manifest.metrics.insert("lighting".into(), json!(out.lighting));
                 manifest.metrics.insert("lattice".into(), json!(out.lattice));
-                (out.image, json!({ "method": "quilt", "quilt": p }))
+                (out.image, json!({ "method": "quilt", "quilt": p }), out.lattice)
             }
         })
     })?;
     manifest.timings_ms.insert("synthesize".into(), clock.lap());
+    if let Some(l) = lattice.as_ref().filter(|_| args.tile) {
+        tile_fit_note(l, size);
+    }
     crate::output::save(&image, &args.out, depth)?;
     manifest.timings_ms.insert("save".into(), clock.lap());
     params["size"] = json!([size.0, size.1]);

@@ -56,6 +56,34 @@ fn synth_writes_the_image_and_a_complete_manifest() {
 }
 
 #[test]
+fn a_regular_exemplar_records_its_lattice_and_a_tile_says_which_size_closes_it() {
+    let dir = scratch("lattice");
+    let ex = dir.join("grid.png");
+    save_png(&patina::samples::disc_grid(160, 160, 48, 1), &ex, BitDepth::Eight).unwrap();
+    let run = |name: &str, size: &str, extra: &[&str]| {
+        let out = dir.join(name);
+        let mut args = vec!["synth", s(&ex), "-o", s(&out), "--size", size, "--seed", "2", "--method", "quilt"];
+        args.extend_from_slice(extra);
+        let r = patina(&args, None);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let m: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join(format!("{name}.manifest.json"))).unwrap()).unwrap();
+        (String::from_utf8_lossy(&r.stderr).into_owned(), m["metrics"]["lattice"].clone())
+    };
+    let (note, lattice) = run("a.png", "200x200", &["--tile"]);
+    let periods = lattice["periods"].as_array().expect("a lattice in the manifest");
+    assert_eq!(periods.len(), 2);
+    for p in periods {
+        let (x, y) = (p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+        assert!(((x * x + y * y).sqrt() - 48.0).abs() < 1.0, "{lattice}");
+    }
+    assert!(note.contains("192x192 would close it"), "{note}");
+    let (note, _) = run("b.png", "192x192", &["--tile"]);
+    assert!(!note.contains("would close"), "{note}");
+    let (_, lattice) = run("c.png", "200x200", &["--no-lattice"]);
+    assert!(lattice.is_null(), "{lattice}");
+}
+
+#[test]
 fn output_bytes_do_not_depend_on_thread_count() {
     let dir = scratch("threads");
     let ex = exemplar(&dir);

@@ -375,7 +375,8 @@ fn a_regular_grid_of_varied_tiles_stays_in_one_phase() {
         let run = |lattice: bool| {
             let quilted = Synthesis::new(&ex).size(w, h).seed(seed).quilt(&QuiltParams { lattice, ..QuiltParams::default() }).unwrap();
             let pos = quilted.plan.source_positions();
-            let shifts: Vec<(i64, i64)> = (0..w * h).map(|i| (pos[i].0 as i64 - (i % w) as i64, pos[i].1 as i64 - (i / w) as i64)).collect();
+            let shifts: Vec<(i64, i64)> =
+                (0..w * h).map(|i| (pos[i].0 as i64 - (i % w) as i64, pos[i].1 as i64 - (i / w) as i64)).collect();
             let params = OptimizeParams { lattice, ..OptimizeParams::default() };
             let optimized = Synthesis::new(&ex).size(w, h).seed(seed).optimize(&params).unwrap().image;
             (in_phase_share(&shifts, period), keeps_grid(&optimized), quilted.lattice.is_some())

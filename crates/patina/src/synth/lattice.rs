@@ -76,8 +76,9 @@ impl Correlation {
     fn new(img: &Image, weights: &[f32]) -> Option<Self> {
         let sigma = (img.width().min(img.height()) as f32 / 40.0).max(2.0);
         let low = gaussian_blur(img, sigma);
-        let detail = Image::from_data(img.width(), img.height(), img.channels(), img.data().iter().zip(low.data()).map(|(a, b)| a - b).collect())
-            .expect("same size");
+        let detail =
+            Image::from_data(img.width(), img.height(), img.channels(), img.data().iter().zip(low.data()).map(|(a, b)| a - b).collect())
+                .expect("same size");
         let (mut values, fw, fh) = autocorrelation(&detail, weights);
         let (w, h) = img.size();
         let zero = values[0] / (w * h) as f32;
@@ -106,7 +107,8 @@ impl Correlation {
         let (x0, y0) = (dx.floor(), dy.floor());
         let (fx, fy) = (dx - x0, dy - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
-        (1.0 - fy) * ((1.0 - fx) * self.at(x0, y0) + fx * self.at(x0 + 1, y0)) + fy * ((1.0 - fx) * self.at(x0, y0 + 1) + fx * self.at(x0 + 1, y0 + 1))
+        (1.0 - fy) * ((1.0 - fx) * self.at(x0, y0) + fx * self.at(x0 + 1, y0))
+            + fy * ((1.0 - fx) * self.at(x0, y0 + 1) + fx * self.at(x0 + 1, y0 + 1))
     }
 
     /// Reach of the analysis: repeats must fit twice in the exemplar.
@@ -181,6 +183,21 @@ impl Lattice {
         (!periods.is_empty()).then_some(Lattice { periods })
     }
 
+    /// The tile size nearest `(w, h)` whose edges wrap in phase: the
+    /// nearest sides, within one period (longest vector) of the asked ones
+    /// and at least `min_side`, for which the shifts (w', 0) and (0, h')
+    /// are within half a pixel of the lattice (else the best there is), so
+    /// that a grid closes across a tileable output's edges.
+    pub fn tile_fit(&self, (w, h): (usize, usize), min_side: usize) -> (usize, usize) {
+        let longest = self.periods.iter().map(|p| (p[0] * p[0] + p[1] * p[1]).sqrt()).fold(0.0f32, f32::max).ceil() as usize;
+        let fit = |side: usize, shift: &dyn Fn(f32) -> [f32; 2]| {
+            let sizes = || (0..=longest).flat_map(|k| [side.checked_sub(k), Some(side + k)]).flatten().filter(|&s| s >= min_side);
+            let off = |s: usize| self.misalignment(shift(s as f32));
+            sizes().find(|&s| off(s) <= 0.5).or_else(|| sizes().min_by(|&a, &b| off(a).total_cmp(&off(b)))).unwrap_or(side)
+        };
+        (fit(w, &|s| [s, 0.0]), fit(h, &|s| [0.0, s]))
+    }
+
     /// The misalignment still counted as aligned: 5% of the shortest
     /// period, at least 1.5 px (real structure is never exactly periodic).
     pub fn tolerance(&self) -> f32 {
@@ -214,11 +231,13 @@ fn stripe_period(corr: &Correlation, along: [f32; 2]) -> Option<[f32; 2]> {
     let profile: Vec<f32> = (0..far + 2)
         .map(|s| {
             let n = (half + 1) as f32;
-            (-half..=half).step_by(2).map(|t| {
-                let (s, t) = (s as f32, t as f32);
-                corr.sample(s * across[0] + t * along[0], s * across[1] + t * along[1])
-            })
-            .sum::<f32>()
+            (-half..=half)
+                .step_by(2)
+                .map(|t| {
+                    let (s, t) = (s as f32, t as f32);
+                    corr.sample(s * across[0] + t * along[0], s * across[1] + t * along[1])
+                })
+                .sum::<f32>()
                 / n
         })
         .collect();
@@ -350,6 +369,16 @@ mod tests {
         assert!(p[0].abs() < 1.0 && (p[1].abs() - 26.0).abs() < 0.5, "{l:?}");
         assert!(l.misalignment([17.0, 52.0]) < 1.0, "along the boards is free");
         assert!(l.misalignment([0.0, 13.0]) > 10.0);
+    }
+
+    #[test]
+    fn the_nearest_tile_that_closes_the_grid() {
+        let l = Lattice { periods: vec![[0.0, 26.0]] };
+        // Boards across y: any width wraps, the height must be whole boards.
+        assert_eq!(l.tile_fit((100, 100), 8), (100, 104));
+        let grid = Lattice { periods: vec![[30.0, 0.0], [15.0, 20.0]] };
+        // Widths: multiples of 30; heights: multiples of 40 (two rows).
+        assert_eq!(grid.tile_fit((100, 100), 8), (90, 80));
     }
 
     #[test]

@@ -471,7 +471,14 @@ impl Pass<'_> {
                         bottom: if self.wrap && i + 1 == ny { ys[i] + bh - height } else { 0 },
                     };
                     let neighbours = [(j > 0).then(|| shifts[i * nx + j - 1]), (i > 0).then(|| shifts[(i - 1) * nx + j])];
-                    let p = self.place(&canvas, &usage, (xs[j], ys[i]), strips, neighbours.into_iter().flatten().flatten(), (i * nx + j) as u64);
+                    let p = self.place(
+                        &canvas,
+                        &usage,
+                        (xs[j], ys[i]),
+                        strips,
+                        neighbours.into_iter().flatten().flatten(),
+                        (i * nx + j) as u64,
+                    );
                     (i * nx + j, p)
                 })
                 .collect();
