@@ -141,12 +141,17 @@ fn run_command(argv: &[&OsStr]) -> Result<()> {
     let cli = crate::Cli::try_parse_from(std::iter::once(OsStr::new("patina")).chain(argv.iter().copied()))
         .map_err(|e| Error::Internal(format!("demo arguments: {e}")))?;
     // The subcommand writes into the demo's staging folder: its own
-    // summary would name that, not where the output ends up.
-    use std::sync::atomic::Ordering;
-    crate::output::QUIET.store(true, Ordering::Relaxed);
-    let result = crate::dispatch(cli.command);
-    crate::output::QUIET.store(false, Ordering::Relaxed);
-    result
+    // summary would name that, not where the output ends up. Summaries come
+    // back when the run ends, also when it unwinds (an embedded cancel).
+    struct Quiet;
+    impl Drop for Quiet {
+        fn drop(&mut self) {
+            crate::output::QUIET.store(false, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+    crate::output::QUIET.store(true, std::sync::atomic::Ordering::Relaxed);
+    let _quiet = Quiet;
+    crate::dispatch(cli.command)
 }
 
 /// A procedural rusting-steel time-lapse (96 x 96, 40 frames) enlarged to
