@@ -120,6 +120,11 @@ def _write_json_atomic(path: Path, value: Any) -> None:
     os.replace(tmp, path)
 
 
+def _entry(name: str, seed: int, output: Path) -> Dict[str, Any]:
+    """One task's batch.json entry, before it runs ("skipped" until a run says otherwise)."""
+    return {"input": name, "seed": seed, "output": str(output), "status": "skipped", "error": None, "seconds": 0.0}
+
+
 def run_batch(
     job: str,
     in_dir: Path,
@@ -151,14 +156,7 @@ def run_batch(
         folder = out_dir / name
         s = derive_seed(seed, source.name)
         output = folder / FILE_OUTPUT[job] if job in FILE_OUTPUT else folder
-        entry = {
-            "input": source.name,
-            "seed": s,
-            "output": str(output.relative_to(out_dir)),
-            "status": "skipped",
-            "error": None,
-            "seconds": 0.0,
-        }
+        entry = _entry(source.name, s, output.relative_to(out_dir))
         entries.append(entry)
         if not force and complete(job, folder):
             continue
@@ -210,14 +208,7 @@ def run_chunks(
     todo = []
     for k in range(1, chunks + 1):
         folder = out_dir / "chunks" / f"{k:0{len(str(chunks))}d}"
-        entry = {
-            "input": f"{sequence.name} chunk {k}/{chunks}",
-            "seed": seed,
-            "output": str(folder.relative_to(out_dir)),
-            "status": "skipped",
-            "error": None,
-            "seconds": 0.0,
-        }
+        entry = _entry(f"{sequence.name} chunk {k}/{chunks}", seed, folder.relative_to(out_dir))
         entries.append(entry)
         if not force and complete(job, folder):
             continue

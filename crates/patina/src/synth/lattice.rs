@@ -19,10 +19,11 @@
 //! by [`CONTRAST`]; the slope of the central peak, or a texture's smooth
 //! grain, does not. A period is kept only if the structure is regular:
 //! it repeats at twice the period nearly as well ([`REGULAR`]), checked
-//! when twice the period fits in [`FAR`] of the side. Periods are refined to sub-pixel by a parabola through
-//! the peak and then measured again at the farthest multiple that fits,
-//! because a block copied k periods away from its neighbour's source
-//! drifts by k times the period's error.
+//! when twice the period fits in [`FAR`] of the side (else the repeat
+//! must be [`STRONG`]). Periods are refined to sub-pixel by a parabola
+//! through the peak and then measured again at the farthest multiple that
+//! fits, because a block copied k periods away from its neighbour's
+//! source drifts by k times the period's error.
 //!
 //! Stochastic textures (gravel, cracked paint, rust) have none, and
 //! synthesis runs unchanged on them.
@@ -54,7 +55,7 @@ pub const REGULAR: f32 = 0.6;
 pub const STRONG: f32 = 0.4;
 /// Farthest shift, as a share of the smaller side, at which a repeat is
 /// checked.
-const FAR: f32 = 0.7;
+pub const FAR: f32 = 0.7;
 
 /// The periods of a texture's regular structure: one vector (repeats in one
 /// direction, e.g. across boards) or two (a grid), in exemplar pixels.
@@ -117,8 +118,9 @@ impl Correlation {
     }
 }
 
-/// Vertex offset of the parabola through three samples (in -0.5..=0.5).
-fn parabola(a: f32, b: f32, c: f32) -> f32 {
+/// Vertex offset of the parabola through three equally spaced samples
+/// (in -0.5..=0.5): a peak's sub-sample position.
+pub(crate) fn parabola(a: f32, b: f32, c: f32) -> f32 {
     let d = a - 2.0 * b + c;
     if d.abs() > 1e-12 {
         (0.5 * (a - c) / d).clamp(-0.5, 0.5)

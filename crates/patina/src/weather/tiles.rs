@@ -20,6 +20,7 @@
 use super::features::Features;
 use crate::image::{Image, Mask};
 use crate::synth::correlate::SpectralSource;
+use crate::synth::lattice::parabola;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -192,9 +193,7 @@ fn profile_period(profile: &[f32]) -> Option<(f32, f32)> {
         }
     }
     let (a, b, c) = (values[lag - 1], values[lag], values[lag + 1]);
-    let denom = a - 2.0 * b + c;
-    let offset = if denom.abs() > 1e-12 { 0.5 * (a - c) / denom } else { 0.0 };
-    Some((lag as f32 + offset.clamp(-0.5, 0.5), b / zero))
+    Some((lag as f32 + parabola(a, b, c), b / zero))
 }
 
 /// [`periods`] on one feature image with per-channel weights.
