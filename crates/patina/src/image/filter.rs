@@ -1,7 +1,7 @@
 //! Filters: separable Gaussian blur and image gradients.
 
 use super::resample::{resize, Filter};
-use super::Image;
+use super::{Image, Mask};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
@@ -122,9 +122,59 @@ pub fn gradients(img: &Image) -> Gradients {
     }
 }
 
+/// Dominant local orientation from the structure tensor (the outer product
+/// of the Sobel gradient, averaged by a Gaussian of `sigma`).
+pub struct Orientation {
+    /// Direction of the dominant gradient (across the structure: across
+    /// wood grain, across a crack), in radians (1 channel).
+    pub across: Image,
+    /// Coherence (l1 - l2) / (l1 + l2) in [0, 1]: 0 isotropic, 1 one
+    /// direction (1 channel).
+    pub coherence: Image,
+}
+
+/// The structure tensor's dominant orientation and coherence at every pixel,
+/// from the pixels of `only` when given (a normalised convolution: so the
+/// edges of a region left out, such as damage, do not take over the
+/// orientation of the material around it).
+pub fn orientation(img: &Image, sigma: f32, only: Option<&Mask>) -> Orientation {
+    let g = gradients(img);
+    let (w, h) = img.size();
+    let tensor = Image::from_fn(w, h, 3, |x, y, p| {
+        if only.is_some_and(|m| !m.get(x, y)) {
+            return;
+        }
+        let (m, d) = (g.magnitude.at(x, y, 0), g.direction.at(x, y, 0));
+        let (gx, gy) = (m * d.cos(), m * d.sin());
+        p.copy_from_slice(&[gx * gx, gx * gy, gy * gy]);
+    });
+    // Coherence is a ratio, so the normaliser of the convolution cancels.
+    let t = gaussian_blur(&tensor, sigma);
+    let mut across = Image::new(w, h, 1);
+    let mut coherence = Image::new(w, h, 1);
+    for (i, j) in t.data().chunks_exact(3).enumerate() {
+        let (xx, xy, yy) = (j[0], j[1], j[2]);
+        across.data_mut()[i] = 0.5 * (2.0 * xy).atan2(xx - yy);
+        let trace = xx + yy;
+        coherence.data_mut()[i] = if trace > 1e-12 { ((xx - yy).powi(2) + 4.0 * xy * xy).sqrt() / trace } else { 0.0 };
+    }
+    Orientation { across, coherence }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn horizontal_stripes_point_across_in_y_and_are_coherent() {
+        let img = Image::from_fn(64, 64, 1, |_, y, p| p[0] = (y as f32 * 0.7).sin());
+        let o = orientation(&img, 3.0, None);
+        let (a, c) = (o.across.at(32, 32, 0), o.coherence.at(32, 32, 0));
+        assert!((a.abs() - std::f32::consts::FRAC_PI_2).abs() < 0.05, "across {a}");
+        assert!(c > 0.95, "coherence {c}");
+        let noise = Image::from_fn(64, 64, 1, |x, y, p| p[0] = ((x * 7919 + y * 104729) % 97) as f32 / 97.0);
+        assert!(orientation(&noise, 6.0, None).coherence.at(32, 32, 0) < 0.5);
+    }
 
     #[test]
     fn a_wide_blur_on_a_shrunken_copy_matches_the_direct_one() {

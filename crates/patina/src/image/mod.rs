@@ -300,6 +300,17 @@ impl Mask {
         pass(&mut (0..w * h).rev(), 1);
         dist.iter().map(|d| if *d >= big { f32::INFINITY } else { d / 3.0 }).collect()
     }
+    /// Per pixel, the signed distance (px, chamfer as [`Mask::distance_inside`])
+    /// to the mask's boundary: positive on set pixels, negative on unset
+    /// ones, +-0.5 on the two sides of the boundary. Outside the bounds
+    /// continues the nearest edge pixel, so the frame is not a boundary;
+    /// a mask with no set (or no unset) pixel is infinitely far from one.
+    pub fn signed_distance(&self) -> Vec<f32> {
+        let inside = self.distance_inside();
+        let complement = Mask { width: self.width, height: self.height, bits: self.bits.iter().map(|b| !b).collect() };
+        let outside = complement.distance_inside();
+        inside.iter().zip(&outside).map(|(&i, &o)| if i > 0.0 { i - 0.5 } else { 0.5 - o }).collect()
+    }
     fn morph(&self, r: usize, dilate: bool) -> Mask {
         // Separable max/min filter; outside the bounds counts as unset.
         let (w, h) = (self.width, self.height);

@@ -9,29 +9,33 @@
 //!    input's own age (weathering advances first into material that is
 //!    already a little aged: the halo around rust, the fine cracks that
 //!    lead away from a peel) and a fractal noise, so fronts are ragged,
-//!    not round.
+//!    not round. A step across the material's structure (the structure
+//!    tensor's dominant gradient, measured on the clean pixels) costs up
+//!    to 1 + [`ANISOTROPY`] times a step along it, so peels run along wood
+//!    grain and boards instead of spreading as discs.
 //! 2. Per future frame, the front advances to the arrival time that makes
 //!    the weathered area reach its target: the clean surface shrinks by
-//!    [`GROWTH_RATE`] of itself per unit of t. The evolved age is the
-//!    input's age where it is higher, else the typical weathered age,
-//!    ramped over a few pixels behind the front.
-//! 3. The band the front crossed since the previous frame is filled
-//!    ([`Synthesis::fill`]) from weathered input material only (the pixels
-//!    above the age cut), guided by age (source: the input's age, target:
-//!    the evolved age), so new damage is made of the input's own damage and
-//!    continues it across the front; the fill is then rebuilt from whole
-//!    weathered patches (its vote dulls large holes drawn from a small
-//!    source set) and taken whole. Every other pixel keeps the previous
-//!    frame exactly. (Guided re-synthesis of the whole frame
-//!    started from the previous one barely changed anything on the photos
-//!    of ../shared/data: the previous frame's clean content out-voted the
-//!    age guide.)
-
-use super::rebuild::{rebuild, Engine};
+//!    [`GROWTH_RATE`] of itself per unit of t.
+//! 3. Drawing: the guide is the signed distance to the damage's edge,
+//!    clamped to a band of half a patch, beside a wide blur of the input's
+//!    colour (where, at large scale, the material comes from). Source: the
+//!    input's damage; target: the grown damage. Every pixel whose clamped
+//!    distance moved by half the band since it was last drawn (the band
+//!    the front crossed, the old rim now inside, the clean pixels the
+//!    front now borders) is filled ([`Synthesis::fill`]) from the input,
+//!    then rebuilt from whole input patches of the damage and its halo
+//!    that follow the fill (the fill's vote alternates between sources
+//!    where the guide fights the content around it) and a softer edge
+//!    guide. Every other pixel keeps the previous frame exactly.
+//!    So the damage's rim moves with its front, as in the input; filling
+//!    only the crossed band by age (stop 24's version) left each old rim
+//!    as a ring inside the new damage.
+use super::rebuild::{rebuild_with, Engine};
 use super::sequence::{Frame, SequenceParams};
 use crate::error::{Error, Result};
 use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};
+use crate::image::filter::{gaussian_blur, orientation, Orientation};
 use crate::samples::fractal_noise;
 use crate::synth::{OptimizeParams, Synthesis};
 use std::cmp::Reverse;
@@ -41,13 +45,26 @@ use std::collections::BinaryHeap;
 pub const GROWTH_RATE: f32 = 0.2;
 /// Nucleation sites per 64 x 64 px of clean surface.
 pub const NUCLEATION_DENSITY: f32 = 0.25;
-/// Width, in pixels of arrival distance, of the ramp behind the front.
-const RAMP: f32 = 3.0;
-/// Weight of the age guide channel against the appearance features.
+/// How much slower the front crosses a fully coherent structure than it
+/// runs along it, minus one.
+const ANISOTROPY: f32 = 4.0;
+/// Blur (px) of the arrival times.
+const FRONT_SMOOTHING: f32 = 1.5;
+/// Scale (px) over which the structure's orientation is averaged.
+const STRUCTURE_SIGMA: f32 = 6.0;
+/// Weight of the edge guide channel against the appearance features.
 const AGE_GUIDE: f32 = 3.0;
+/// Change of a pixel's clamped edge distance, in bands, that re-draws it.
+const REDRAW_STEP: f32 = 0.5;
+/// Weight of the guides in the rebuild of a fill, against the fill's.
+const REBUILD_EDGE: f32 = 0.3;
+/// Blur of the input's colour that tells where new material comes from, in patches.
+const CONTEXT_SIGMA: f32 = 2.0;
+/// Weight of that context against the edge guide.
+const CONTEXT_GUIDE: f32 = 1.0;
 
 /// Arrival time of the weathering at every pixel (0 on weathered pixels).
-pub fn arrival_times(age: &Image, weathered: &Mask, seed: u64) -> Vec<f32> {
+pub fn arrival_times(age: &Image, weathered: &Mask, structure: &Orientation, seed: u64) -> Vec<f32> {
     let (w, h) = age.size();
     let mut g = rng::generator(seed, &[0x9a0]);
     let noise_seed = rng::derive(seed, &[0x9a1]);
@@ -61,6 +78,8 @@ pub fn arrival_times(age: &Image, weathered: &Mask, seed: u64) -> Vec<f32> {
             0.3 + 1.6 * n * n + age.data()[i]
         })
         .collect();
+    let across: Vec<(f32, f32, f32)> =
+        structure.across.data().iter().zip(structure.coherence.data()).map(|(&a, &c)| (a.cos(), a.sin(), c)).collect();
     let mut time = vec![f32::INFINITY; w * h];
     let mut heap: BinaryHeap<Reverse<(u32, u32)>> = BinaryHeap::new();
     let key = |t: f32| (t * 1024.0) as u32;
@@ -106,11 +125,24 @@ pub fn arrival_times(age: &Image, weathered: &Mask, seed: u64) -> Vec<f32> {
                 continue;
             }
             let j = ny as usize * w + nx as usize;
-            let t = time[i] + len * 2.0 / (speed[i] + speed[j]);
+            // Slower across the structure than along it: peels run along
+            // the grain, cracks along cracks.
+            let cos = (dx as f32 * across[i].0 + dy as f32 * across[i].1) / len;
+            let t = time[i] + len * 2.0 / (speed[i] + speed[j]) * (1.0 + ANISOTROPY * across[i].2 * cos * cos);
             if t < time[j] {
                 time[j] = t;
                 heap.push(Reverse((key(t), j as u32)));
             }
+        }
+    }
+    // Across a coherent structure the 8-neighbour steps reach diagonal
+    // pixels before their side neighbours, which leaves a checkerboard in
+    // the front; a light blur of the times smooths it (weathered pixels
+    // stay at 0).
+    if time.iter().all(|t| t.is_finite()) {
+        let smooth = gaussian_blur(&Image::from_data(w, h, 1, time.clone()).expect("sizes match"), FRONT_SMOOTHING);
+        for ((t, s), &b) in time.iter_mut().zip(smooth.data()).zip(weathered.bits()) {
+            *t = if b { 0.0 } else { *s };
         }
     }
     time
@@ -126,31 +158,29 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
         return Err(Error::invalid("future frames need a positive span"));
     }
     let weathered = Mask::from_fn(w, h, |x, y| age.at(x, y, 0) >= cut);
-    let arrival = arrival_times(age, &weathered, seed);
+    let clean = Mask::from_fn(w, h, |x, y| !weathered.get(x, y));
+    let arrival = arrival_times(age, &weathered, &orientation(input, STRUCTURE_SIGMA, Some(&clean)), seed);
     // Arrival times of the clean pixels, sorted: the quantiles set the front.
     let mut clean_times: Vec<f32> = arrival.iter().zip(weathered.bits()).filter(|(_, &b)| !b).map(|(t, _)| *t).collect();
     clean_times.sort_by(f32::total_cmp);
-    // The typical weathered age, which new weathering takes on.
-    let mut aged: Vec<f32> = age.data().iter().copied().filter(|&a| a >= cut).collect();
-    aged.sort_by(f32::total_cmp);
-    let typical = if aged.is_empty() { 1.0 } else { aged[aged.len() / 2] };
-    // Weathered input material the new damage is made of: whole patches
-    // above the cut (the most aged tenth when too little is left).
     let patch = params.rebuild.patch;
-    let r = patch / 2;
-    let mut sources = weathered.erode(r).dilate(r);
-    if sources.count() < patch * patch * 4 {
-        let mut sorted = age.data().to_vec();
-        sorted.sort_by(f32::total_cmp);
-        let top = sorted[sorted.len() * 9 / 10];
-        sources = Mask::from_fn(w, h, |x, y| age.at(x, y, 0) >= top).erode(r).dilate(r);
-    }
-    if sources.count() == 0 {
-        sources = Mask::filled(w, h, true);
-    }
-    let source_guide = age.map(|v| v * AGE_GUIDE);
+    // The guide is the signed distance to the damage's edge, clamped to
+    // the band: the input's own (source) and the grown front's (target).
+    // So the new front is drawn with the input's rim material, the halo
+    // ahead of it with the input's halo, and the old rim, now deeper
+    // inside, with interior material: the damage's edge moves with the
+    // front instead of staying as a ring inside new damage.
+    let band = edge_band(patch);
+    let context = gaussian_blur(input, CONTEXT_SIGMA * patch as f32).map(|v| v * CONTEXT_GUIDE);
+    let source_edge = guide(&weathered, band, &context)?;
+    // The rebuild's edge guide, softer than the fill's: strong enough to
+    // keep the grown damage from reverting to clean material, weak enough
+    // not to fight the content around it.
+    let soft_source = source_edge.map(|v| v * REBUILD_EDGE);
+    let near_damage = weathered.dilate(band.round() as usize);
     let mut previous = input.clone();
-    let mut previous_age = age.clone();
+    // Per pixel, the edge guide it was last drawn for.
+    let mut drawn = source_edge.select_channels(0..1);
     let mut reached = weathered.clone();
     let mut frames = Vec::with_capacity(params.future);
     for k in 1..=params.future {
@@ -162,45 +192,64 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
         } else {
             clean_times[((share * clean_times.len() as f32) as usize).min(clean_times.len() - 1)]
         };
-        let evolved = Image::from_fn(w, h, 1, |x, y, p| {
-            let i = y * w + x;
-            let ramp = ((front - arrival[i]) / RAMP).clamp(0.0, 1.0);
-            p[0] = age.data()[i].max(typical * ramp).max(previous_age.data()[i]);
-        });
-        // Newly reached pixels (the front passed them):
-        // filled from weathered material.
-        let reached_now = Mask::from_fn(w, h, |x, y| reached.get(x, y) || front >= arrival[y * w + x]);
-        let moved = Mask::from_fn(w, h, |x, y| reached_now.get(x, y) && !reached.get(x, y));
-        reached = reached_now;
-        let current = if moved.count() == 0 {
+        reached = Mask::from_fn(w, h, |x, y| reached.get(x, y) || front >= arrival[y * w + x]);
+        let edge = guide(&reached, band, &context)?;
+        // Re-drawn: every pixel whose place relative to the edge moved by
+        // a visible step since it was last drawn (the band the front
+        // crossed, the old rim now inside, the new halo ahead of it).
+        let redraw = Mask::from_fn(w, h, |x, y| (edge.at(x, y, 0) - drawn.at(x, y, 0)).abs() > REDRAW_STEP * AGE_GUIDE);
+        let current = if redraw.count() == 0 {
             previous.clone()
         } else {
-            // Fill this frame's band, in the previous frame.
-            let target_guide = evolved.map(|v| v * AGE_GUIDE);
             // A rough fill is enough: the rebuild below makes it real material.
-            let op = OptimizeParams { patch, levels: Some(2), search_vote_iters: 3, ..OptimizeParams::default() };
+            let op = OptimizeParams { patch, levels: Some(3), search_vote_iters: 6, uniformity: 0.0, ..OptimizeParams::default() };
             let filled = Synthesis::new(input)
-                .fill(&previous, &moved)
-                .source_mask(&sources)
-                .guides(&source_guide, &target_guide, params.rebuild.guide_weight)
+                .fill(&previous, &redraw)
+                .guides(&source_edge, &edge, params.rebuild.guide_weight)
                 .seed(rng::derive(seed, &[0xf2, k as u64]))
                 .optimize(&op)?
                 .image;
-            // The fill's vote dulls large holes drawn from a small source
-            // set: rebuild it from whole weathered patches, guided by it.
-            let filled = rebuild(input, &filled, Some(&sources), Engine::Optimize, &params.rebuild, rng::derive(seed, &[0xf3, k as u64]))?;
-            // Taken whole: new damage need not lie farther from the intact
-            // colour than the material it replaces (grey bare stone under
-            // yellow lichen), and keeping only the pixels that do left
-            // just the fill's rims: contour lines.
-            blend_where(&previous, &filled, &moved.to_image())
+            // Where the guide fights the surrounding content, the fill's
+            // vote alternates between sources pixel by pixel: rebuild it
+            // from whole input patches that follow it and the edge guide,
+            // made of the damage and its halo, and take the re-drawn
+            // pixels of that.
+            let filled = rebuild_with(
+                input,
+                &filled,
+                Some(&near_damage),
+                Some((&soft_source, &edge.map(|v| v * REBUILD_EDGE))),
+                Engine::Optimize,
+                &params.rebuild,
+                rng::derive(seed, &[0xf3, k as u64]),
+            )?;
+            blend_where(&previous, &filled, &redraw.to_image())
         };
-        previous_age = evolved;
+        for (i, d) in drawn.data_mut().iter_mut().enumerate() {
+            if redraw.bits()[i] {
+                *d = edge.data()[i * edge.channels()];
+            }
+        }
         previous = current;
         frames.push(Frame { t, image: previous.clone() });
         progress(k);
     }
     Ok(frames)
+}
+
+/// Half-width, in pixels, of the band around the damage's edge whose look
+/// depends on the distance to it (rims, halos, lifted lips): 1.5 patches,
+/// at least 6 px.
+fn edge_band(patch: usize) -> f32 {
+    (0.5 * patch as f32).max(3.0)
+}
+
+/// The guide channel: the signed distance to `damage`'s edge over `band`,
+/// clamped to [-1, 1], times [`AGE_GUIDE`].
+fn guide(damage: &Mask, band: f32, context: &Image) -> Result<Image> {
+    let d = damage.signed_distance();
+    let edge = Image::from_fn(damage.width(), damage.height(), 1, |x, y, p| p[0] = AGE_GUIDE * (d[y * damage.width() + x] / band).clamp(-1.0, 1.0));
+    Image::concat_channels(&[&edge, context])
 }
 
 /// `a` blended towards `b` by `weight` (one channel in [0, 1]). The fill

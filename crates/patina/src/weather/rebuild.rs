@@ -60,8 +60,27 @@ pub fn rebuild(
     params: &RebuildParams,
     seed: u64,
 ) -> Result<Image> {
-    let sg = Features::new(exemplar, true)?.stacked();
-    let tg = Features::new(template, true)?.stacked();
+    rebuild_with(exemplar, template, allowed, None, engine, params, seed)
+}
+
+/// [`rebuild`] with a further guide pair (exemplar's, template's) beside
+/// the template's features: e.g. where the template's pixels lie relative
+/// to the damage's edge, so the rebuild keeps the layout it was given.
+pub fn rebuild_with(
+    exemplar: &Image,
+    template: &Image,
+    allowed: Option<&Mask>,
+    extra: Option<(&Image, &Image)>,
+    engine: Engine,
+    params: &RebuildParams,
+    seed: u64,
+) -> Result<Image> {
+    let mut sg = Features::new(exemplar, true)?.stacked();
+    let mut tg = Features::new(template, true)?.stacked();
+    if let Some((se, te)) = extra {
+        sg = Image::concat_channels(&[&sg, se])?;
+        tg = Image::concat_channels(&[&tg, te])?;
+    }
     let mut problem = Synthesis::new(exemplar).size(template.width(), template.height()).guides(&sg, &tg, params.guide_weight).seed(seed);
     if let Some(m) = allowed {
         problem = problem.source_mask(m);
