@@ -25,7 +25,9 @@ fn weathered_area(frame: &Image, intact: &Image) -> f32 {
 /// and 10% rust. Per case, the lowest age-map AUC and the highest intact
 /// residue this version reaches, with some margin; below them, a change
 /// made the method worse. (The goal is AUC 0.9 and residue 0.2 on
-/// every case. Not there yet: the crack network on planks, AUC 0.87, and
+/// every case. Not there yet: the crack network on planks, AUC 0.83 since
+/// the boards are found under the cracks (their grooves are then kept out
+/// of the age map, and so are the cracks that run along them), and
 /// the residue of the crack network on stucco, 0.25, and of the peels on
 /// stucco and planks, 0.32 and 0.23.)
 const GROUND_TRUTH: [(&str, Weathering, f32, f32, f32); 9] = [
@@ -35,7 +37,7 @@ const GROUND_TRUTH: [(&str, Weathering, f32, f32, f32); 9] = [
     ("tiles", Weathering::CrackNetwork, 0.0, 0.88, 0.05),
     ("tiles", Weathering::Peel, 0.32, 0.95, 0.05),
     ("tiles", Weathering::Rust, 0.1, 0.97, 0.05),
-    ("planks", Weathering::CrackNetwork, 0.0, 0.83, 0.12),
+    ("planks", Weathering::CrackNetwork, 0.0, 0.8, 0.12),
     ("planks", Weathering::Peel, 0.32, 0.9, 0.3),
     ("planks", Weathering::Rust, 0.1, 0.93, 0.12),
 ];

@@ -120,7 +120,7 @@ impl Correlation {
 
 /// Vertex offset of the parabola through three equally spaced samples
 /// (in -0.5..=0.5): a peak's sub-sample position.
-pub(crate) fn parabola(a: f32, b: f32, c: f32) -> f32 {
+fn parabola(a: f32, b: f32, c: f32) -> f32 {
     let d = a - 2.0 * b + c;
     if d.abs() > 1e-12 {
         (0.5 * (a - c) / d).clamp(-0.5, 0.5)

@@ -47,7 +47,7 @@ pub const GROWTH_RATE: f32 = 0.2;
 pub const NUCLEATION_DENSITY: f32 = 0.25;
 /// How much slower the front crosses a fully coherent structure than it
 /// runs along it, minus one.
-const ANISOTROPY: f32 = 4.0;
+pub const ANISOTROPY: f32 = 4.0;
 /// Blur (px) of the arrival times.
 const FRONT_SMOOTHING: f32 = 1.5;
 /// Scale (px) over which the structure's orientation is averaged.
