@@ -32,14 +32,27 @@ pub fn rgb(img: &Image) -> Result<Image> {
     }
 }
 
+/// The appearance channels of [`Features`] alone (see [`Features::new`]).
+pub fn appearance(img: &Image, colour: bool) -> Result<Image> {
+    Ok(appearance_of(&rgb(img)?, colour))
+}
+
+fn appearance_of(rgb: &Image, colour: bool) -> Image {
+    let lab = color::to_lab(rgb);
+    if colour {
+        lab.map(|v| v / 100.0)
+    } else {
+        lab.select_channels(0..1).map(|v| v / 100.0)
+    }
+}
+
 impl Features {
     /// Features of `img` (sRGB values in [0, 1]; extra channels such as
     /// alpha are ignored). `colour` adds Lab's a and b to the luminance the
     /// paper compares: rust on a grey plate can match its luminance.
     pub fn new(img: &Image, colour: bool) -> Result<Self> {
         let rgb = rgb(img)?;
-        let lab = color::to_lab(&rgb);
-        let appearance = if colour { lab.map(|v| v / 100.0) } else { lab.select_channels(0..1).map(|v| v / 100.0) };
+        let appearance = appearance_of(&rgb, colour);
         let g = gradients(&gaussian_blur(&rgb, 0.8));
         let direction = Image::from_fn(img.width(), img.height(), 2, |x, y, p| {
             let m = g.magnitude.at(x, y, 0);

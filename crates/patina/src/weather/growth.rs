@@ -30,12 +30,13 @@
 //!    So the damage's rim moves with its front, as in the input; filling
 //!    only the crossed band by age (stop 24's version) left each old rim
 //!    as a ring inside the new damage.
+
 use super::rebuild::{rebuild_with, Engine};
 use super::sequence::{Frame, SequenceParams};
 use crate::error::{Error, Result};
+use crate::image::filter::{gaussian_blur, orientation, Orientation};
 use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};
-use crate::image::filter::{gaussian_blur, orientation, Orientation};
 use crate::samples::fractal_noise;
 use crate::synth::{OptimizeParams, Synthesis};
 use std::cmp::Reverse;
@@ -53,7 +54,7 @@ const FRONT_SMOOTHING: f32 = 1.5;
 /// Scale (px) over which the structure's orientation is averaged.
 const STRUCTURE_SIGMA: f32 = 6.0;
 /// Weight of the edge guide channel against the appearance features.
-const AGE_GUIDE: f32 = 3.0;
+const EDGE_GUIDE: f32 = 3.0;
 /// Change of a pixel's clamped edge distance, in bands, that re-draws it.
 const REDRAW_STEP: f32 = 0.5;
 /// Weight of the guides in the rebuild of a fill, against the fill's.
@@ -140,10 +141,8 @@ pub fn arrival_times(age: &Image, weathered: &Mask, structure: &Orientation, see
     // the front; a light blur of the times smooths it (weathered pixels
     // stay at 0).
     if time.iter().all(|t| t.is_finite()) {
-        let smooth = gaussian_blur(&Image::from_data(w, h, 1, time.clone()).expect("sizes match"), FRONT_SMOOTHING);
-        for ((t, s), &b) in time.iter_mut().zip(smooth.data()).zip(weathered.bits()) {
-            *t = if b { 0.0 } else { *s };
-        }
+        let smooth = gaussian_blur(&Image::from_data(w, h, 1, time).expect("sizes match"), FRONT_SMOOTHING);
+        return smooth.data().iter().zip(weathered.bits()).map(|(&s, &b)| if b { 0.0 } else { s }).collect();
     }
     time
 }
@@ -197,11 +196,12 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
         // Re-drawn: every pixel whose place relative to the edge moved by
         // a visible step since it was last drawn (the band the front
         // crossed, the old rim now inside, the new halo ahead of it).
-        let redraw = Mask::from_fn(w, h, |x, y| (edge.at(x, y, 0) - drawn.at(x, y, 0)).abs() > REDRAW_STEP * AGE_GUIDE);
+        let redraw = Mask::from_fn(w, h, |x, y| (edge.at(x, y, 0) - drawn.at(x, y, 0)).abs() > REDRAW_STEP * EDGE_GUIDE);
         let current = if redraw.count() == 0 {
             previous.clone()
         } else {
-            // A rough fill is enough: the rebuild below makes it real material.
+            // No uniformity penalty: the band may need rim material far more
+            // often than the input shows it.
             let op = OptimizeParams { patch, levels: Some(3), search_vote_iters: 6, uniformity: 0.0, ..OptimizeParams::default() };
             let filled = Synthesis::new(input)
                 .fill(&previous, &redraw)
@@ -238,17 +238,19 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
 }
 
 /// Half-width, in pixels, of the band around the damage's edge whose look
-/// depends on the distance to it (rims, halos, lifted lips): 1.5 patches,
-/// at least 6 px.
+/// depends on the distance to it (rims, halos, lifted lips): half a patch,
+/// at least 3 px.
 fn edge_band(patch: usize) -> f32 {
     (0.5 * patch as f32).max(3.0)
 }
 
 /// The guide channel: the signed distance to `damage`'s edge over `band`,
-/// clamped to [-1, 1], times [`AGE_GUIDE`].
+/// clamped to [-1, 1], times [`EDGE_GUIDE`].
 fn guide(damage: &Mask, band: f32, context: &Image) -> Result<Image> {
     let d = damage.signed_distance();
-    let edge = Image::from_fn(damage.width(), damage.height(), 1, |x, y, p| p[0] = AGE_GUIDE * (d[y * damage.width() + x] / band).clamp(-1.0, 1.0));
+    let edge = Image::from_fn(damage.width(), damage.height(), 1, |x, y, p| {
+        p[0] = EDGE_GUIDE * (d[y * damage.width() + x] / band).clamp(-1.0, 1.0)
+    });
     Image::concat_channels(&[&edge, context])
 }
 

@@ -13,7 +13,7 @@
 //! [`median_tile`] then builds the template of section 5: at each pixel,
 //! the per-channel median over every tile at the same offset.
 
-use super::features::Features;
+use super::features;
 use crate::image::{Image, Mask};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -59,7 +59,7 @@ impl Periodicity {
 /// features, every channel weighted alike: one period is
 /// [`Periodicity::Stripes`], two a grid, `None` a stochastic texture.
 pub fn periods(img: &Image) -> Option<Periodicity> {
-    let appearance = Features::new(img, true).ok()?.appearance;
+    let appearance = features::appearance(img, true).ok()?;
     let lattice = crate::synth::lattice::Lattice::detect(&appearance, &vec![1.0; appearance.channels()])?;
     match lattice.periods[..] {
         [a, b] => Some(Periodicity::Grid(Lattice { a, b })),
