@@ -118,7 +118,8 @@ pub fn run(args: Args) -> Result<()> {
         }
         None => None,
     };
-    let inputs_lib = Inputs { mask: mask.as_ref(), texture: synthesized.as_ref(), degree: painting.as_ref(), rate: rate.as_ref() };
+    let inputs_lib =
+        Inputs { mask: mask.as_ref(), texture: synthesized.as_ref(), degree: painting.as_ref(), rate: rate.as_ref(), transition: None };
     let prepared = decay::prepare(&photo, inputs_lib, &params, args.seed)?;
     manifest.timings_ms.insert("prepare".into(), clock.lap());
     let frames = with_bar("decay", |report| decay::sequence(&prepared, args.frames, args.seed, Some(report)))?;

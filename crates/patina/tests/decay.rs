@@ -2,9 +2,9 @@
 //! cylinder painted in flat colour with fine grain, on a textured
 //! background, with an object mask.
 
-use patina::decay::composite::composite;
+use patina::decay::composite::{composite, Layers};
 use patina::decay::texture::{generate, DecayClass};
-use patina::decay::{self, DecayParams, Inputs};
+use patina::decay::{self, DecayParams, Inputs, Transition};
 use patina::image::color::{linear_to_srgb, to_lab};
 use patina::image::{Image, Mask};
 use patina::metrics::stationarity;
@@ -70,13 +70,13 @@ fn zero_degree_returns_the_input_and_full_degree_the_shaded_texture() {
     let (lab_in, lab_tex) = (to_lab(&input), to_lab(&prep.texture));
     let onset = prep.texture.select_channels(3..4);
     let zero = Image::new(W, H, 1);
-    let out = composite(&input, &lab_in, &lab_tex, &onset, &prep.shading, &zero);
+    let out = plain(&input, &lab_in, &lab_tex, &onset, &prep.shading, &zero);
     assert_eq!(out.data(), input.data());
     // At D = 1 every texel is the texture's colour under the object's
     // shading: the texture's hue exactly, darker and no more saturated on
     // the cylinder's dark side than on its lit side.
     let one = Image::from_fn(W, H, 1, |x, y, p| p[0] = if mask.get(x, y) { 1.0 } else { 0.0 });
-    let full = to_lab(&composite(&input, &lab_in, &lab_tex, &onset, &prep.shading, &one));
+    let full = to_lab(&plain(&input, &lab_in, &lab_tex, &onset, &prep.shading, &one));
     let (mut dark, mut lit, mut dark_chroma, mut lit_chroma, mut hue_error, mut n) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     let chroma = |p: &[f32]| (p[1] * p[1] + p[2] * p[2]).sqrt();
     for y in 12..116 {
@@ -230,7 +230,7 @@ fn a_matte_decay_drops_the_photos_highlight_and_keeps_its_shading() {
     let (lab_in, lab_tex) = (to_lab(&input), to_lab(&prep.texture));
     let onset = prep.texture.select_channels(3..4);
     let one = Image::from_fn(W, H, 1, |x, y, p| p[0] = if mask.get(x, y) { 1.0 } else { 0.0 });
-    let out = to_lab(&composite(&input, &lab_in, &lab_tex, &onset, &prep.shading, &one));
+    let out = to_lab(&plain(&input, &lab_in, &lab_tex, &onset, &prep.shading, &one));
     // Mean L* per column of the decayed cylinder.
     let column = |x: usize| (12..116).map(|y| out.at(x, y, 0)).sum::<f32>() / 104.0;
     let cols: Vec<f32> = (30..130).map(column).collect();
@@ -247,9 +247,55 @@ fn a_matte_decay_drops_the_photos_highlight_and_keeps_its_shading() {
     let r = pearson(&applied, &shade);
     assert!(r >= 0.8, "shading applied to the decay vs the diffuse shading: r = {r}");
     // Without the gloss model the highlight would have stayed.
-    let glossy = to_lab(&composite(&input, &lab_in, &lab_tex, &onset, &decay::shading::estimate(&input, &mask, &Default::default()), &one));
+    let glossy = to_lab(&plain(&input, &lab_in, &lab_tex, &onset, &decay::shading::estimate(&input, &mask, &Default::default()), &one));
     let glossy_peak = (85..92).map(|x| (12..116).map(|y| glossy.at(x, y, 0)).sum::<f32>() / 104.0).sum::<f32>() / 7.0;
     assert!(glossy_peak > peak * 1.1, "the test's highlight is too weak to matter: {glossy_peak} vs {peak}");
+}
+
+/// Eq. 3 alone: the composite without a transition zone.
+fn plain(photo: &Image, photo_lab: &Image, texture_lab: &Image, onset: &Image, shading: &Image, degree: &Image) -> Image {
+    composite(photo, photo_lab, &Layers { texture_lab, onset, shading, transition: Transition::NONE, seed: 0 }, degree)
+}
+
+/// A flat grey photo decayed fully left of x = 80 and barely begun (D =
+/// 0.01, below every onset, which the test holds at 0.2 or more) to the
+/// right: the mean colour change per column right of the edge, with
+/// `transition`.
+fn stain_profile(class: DecayClass, transition: Transition) -> Vec<f32> {
+    let input = Image::from_fn(W, H, 3, |_, _, p| p.fill(0.6));
+    let mask = Mask::filled(W, H, true);
+    let prep = decay::prepare(&input, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(class), 3).unwrap();
+    let (lab_in, lab_tex) = (to_lab(&input), to_lab(&prep.texture));
+    let onset = prep.texture.select_channels(3..4).map(|o| o.max(0.2));
+    let shading = Image::from_fn(W, H, 1, |_, _, p| p[0] = 1.0);
+    let degree = Image::from_fn(W, H, 1, |x, _, p| p[0] = if x < 80 { 1.0 } else { 0.01 });
+    let layers = Layers { texture_lab: &lab_tex, onset: &onset, shading: &shading, transition, seed: 3 };
+    let out = to_lab(&composite(&input, &lab_in, &layers, &degree));
+    (80..W)
+        .map(|x| {
+            let change: f32 = (0..H).map(|y| (0..3).map(|c| (out.at(x, y, c) - lab_in.at(x, y, c)).powi(2)).sum::<f32>().sqrt()).sum();
+            change / H as f32
+        })
+        .collect()
+}
+
+#[test]
+fn decay_has_a_soft_stained_edge_of_its_class_width() {
+    for class in [DecayClass::Rust, DecayClass::Mossy] {
+        let t = class.transition();
+        let profile = stain_profile(class, t);
+        // Right at the edge the photo is visibly stained (Delta E > 5 on average).
+        assert!(profile[0] > 5.0, "{class:?}: no stain at the edge: {:?}", &profile[..8]);
+        // The stain fades, half gone within 0.5-3 widths of the edge.
+        let half = profile.iter().position(|&v| v < 0.5 * profile[0]).unwrap_or(profile.len()) as f32;
+        assert!((0.5 * t.width..=3.0 * t.width).contains(&half), "{class:?}: stain half-width {half} px for a {} px zone", t.width);
+        // And is gone far from the decay: D > 0 there, yet the photo is its own.
+        let far = (5.0 * t.width) as usize;
+        assert!(profile[far..].iter().all(|&v| v < 0.5), "{class:?}: stain beyond {far} px: {:?}", &profile[far..far + 4]);
+        // Without the zone the edge is a hard cut.
+        let hard = stain_profile(class, Transition::NONE);
+        assert!(hard.iter().all(|&v| v == 0.0), "{class:?}: change beyond the decay without a zone");
+    }
 }
 
 fn pearson(a: &[f32], b: &[f32]) -> f32 {

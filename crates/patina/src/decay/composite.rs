@@ -23,11 +23,79 @@
 //! crazed paint between them, rust at its pits first) rather than the whole
 //! texture at half opacity, which reads as a ghost of the texture. w is
 //! monotone in D, 0 at D = 0 and 1 at D = 1.
+//!
+//! Around what shows, a [`Transition`] zone stains the photo (the paper's
+//! generator has none, so its decay reads as stickers): rust bleeds an
+//! orange-brown glaze into the paint around it, a flake casts a thin
+//! shadow, moss leaves a damp dark rim. The zone is the visible weight w
+//! blurred by the zone's width (and shifted by its offset), so a big patch
+//! gets a full rim and a speck a faint one; within it the photo is
+//! multiplied, in linear RGB, by the zone's tint (a translucent glaze keeps
+//! the photo's own detail and shading). It appears only where the decay
+//! has begun (D > 0), so pixels at D = 0 stay the photo's bytes.
 
-use super::noise::smoothstep;
-use crate::image::color::lab_pixel_to_srgb;
+use super::noise::{smoothstep, Layer};
+use crate::image::color::{lab_pixel_to_srgb, linear_to_srgb, srgb_pixel_to_lab, srgb_to_linear};
+use crate::image::filter::gaussian_blur;
 use crate::image::{Image, Mask};
 use rayon::prelude::*;
+use serde::Serialize;
+
+/// The stained zone around visible decay.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Transition {
+    /// Gaussian width of the zone, in pixels (0: no zone).
+    pub width: f32,
+    /// The linear-RGB factor the zone applies at its full strength.
+    pub tint: [f32; 3],
+    /// The zone's strength at the edge of a large decayed patch, in [0, 1].
+    pub strength: f32,
+    /// Where the zone falls relative to the decay, in pixels (a flake's
+    /// shadow falls down-right).
+    pub offset: [f32; 2],
+}
+
+impl Transition {
+    /// No zone: eq. 3 alone.
+    pub const NONE: Transition = Transition { width: 0.0, tint: [1.0; 3], strength: 0.0, offset: [0.0; 2] };
+
+    /// The zone's weight per pixel at `degree`, given the visible weight
+    /// map `w`: strength x min(1, 2 x blur(w)), read at a position shifted
+    /// by the offset and displaced by up to one width with coordinate
+    /// noise of `seed` (so the rim is ragged, as stains are, not a glow of
+    /// even width), times a noisy density in [0.4, 1], times (1 - w) (the
+    /// texture covers its own pixels), faded in over the first 0.01 of D
+    /// (none where D = 0).
+    pub fn weights(&self, w: &Image, degree: &Image, seed: u64) -> Option<Vec<f32>> {
+        if self.width <= 0.0 || self.strength <= 0.0 {
+            return None;
+        }
+        let (width, height) = w.size();
+        let near = gaussian_blur(w, self.width);
+        let [dx, dy] = self.offset;
+        let (warp_x, warp_y, density) = (Layer::new(seed, 950), Layer::new(seed, 951), Layer::new(seed, 952));
+        let scale = 2.0 * self.width.max(1.0);
+        let mut out = vec![0f32; width * height];
+        out.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+            for (x, o) in row.iter_mut().enumerate() {
+                let i = y * width + x;
+                let d = degree.data()[i];
+                if d <= 0.0 || w.data()[i] >= 1.0 {
+                    continue;
+                }
+                let (fx, fy) = (x as f32, y as f32);
+                let sx = fx - dx + self.width * warp_x.fbm(fx, fy, scale, 3, 0.5);
+                let sy = fy - dy + self.width * warp_y.fbm(fx, fy, scale, 3, 0.5);
+                let sx = sx.round().clamp(0.0, (width - 1) as f32) as usize;
+                let sy = sy.round().clamp(0.0, (height - 1) as f32) as usize;
+                let rim = (2.0 * near.data()[sy * width + sx]).min(1.0);
+                let dense = (0.7 + 0.6 * density.fbm(fx, fy, 0.5 * scale, 3, 0.6)).clamp(0.4, 1.0);
+                *o = self.strength * rim * dense * (1.0 - w.data()[i]) * smoothstep(0.0, 0.01, d);
+            }
+        });
+        Some(out)
+    }
+}
 
 /// Half-width of the onset transition in degree units.
 const ONSET_SOFTNESS: f32 = 0.04;
@@ -92,23 +160,51 @@ pub fn transfer_colour(texture_lab: &mut Image, photo_lab: &Image, mask: &Mask, 
     });
 }
 
-/// Eq. 3: the photo `photo` (sRGB, its bytes kept wherever w = 0) decayed
-/// to `degree` with the texture (`texture_lab`, `onset`) under `shading`.
+/// The decay's layers as [`composite`] blends them into the photo.
+pub struct Layers<'a> {
+    /// The decay texture's colour in Lab.
+    pub texture_lab: &'a Image,
+    /// The texture's onset channel.
+    pub onset: &'a Image,
+    /// The object's relative shading.
+    pub shading: &'a Image,
+    /// The stained zone around the decay.
+    pub transition: Transition,
+    /// Seed of the zone's ragged edge.
+    pub seed: u64,
+}
+
+/// Eq. 3: the photo `photo` (sRGB, its bytes kept wherever the decay is
+/// invisible and has no stain) decayed to `degree` with the `layers`.
 /// Pixels with degree 0 (and so everything outside the mask) are copied
 /// from the photo untouched.
-pub fn composite(photo: &Image, photo_lab: &Image, texture_lab: &Image, onset: &Image, shading: &Image, degree: &Image) -> Image {
+pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Image) -> Image {
     let (w, channels) = (photo.width(), photo.channels());
+    let mut visible = degree.clone();
+    visible.data_mut().iter_mut().zip(layers.onset.data()).for_each(|(d, &o)| *d = weight(*d, o));
+    let stain = if channels >= 3 { layers.transition.weights(&visible, degree, layers.seed) } else { None };
+    let tint = layers.transition.tint;
     let mut out = photo.clone();
     out.data_mut().par_chunks_mut(w * channels).enumerate().for_each(|(y, row)| {
         for (x, px) in row.chunks_exact_mut(channels).enumerate() {
             let i = y * w + x;
-            let wt = weight(degree.data()[i], onset.data()[i]);
-            if wt <= 0.0 || channels < 3 {
+            let wt = visible.data()[i];
+            let b = stain.as_ref().map_or(0.0, |s| s[i]);
+            if (wt <= 0.0 && b <= 0.0) || channels < 3 {
                 continue;
             }
-            let (p, t) = (&photo_lab.data()[i * 3..i * 3 + 3], &texture_lab.data()[i * 3..i * 3 + 3]);
+            // The photo under the stain: a glaze multiplying its linear colour.
+            let stained;
+            let p = if b > 0.0 {
+                let rgb = [0, 1, 2].map(|c| linear_to_srgb(srgb_to_linear(px[c]) * (1.0 + b * (tint[c] - 1.0))));
+                stained = srgb_pixel_to_lab(rgb);
+                &stained[..]
+            } else {
+                &photo_lab.data()[i * 3..i * 3 + 3]
+            };
+            let t = &layers.texture_lab.data()[i * 3..i * 3 + 3];
             // S is a ratio of linear luminance; L* goes as Y^(1/3).
-            let s = shading.data()[i].cbrt();
+            let s = layers.shading.data()[i].cbrt();
             let lab = [wt * t[0] * s + (1.0 - wt) * p[0], wt * t[1] * s + (1.0 - wt) * p[1], wt * t[2] * s + (1.0 - wt) * p[2]];
             let rgb = lab_pixel_to_srgb(lab);
             for c in 0..3 {

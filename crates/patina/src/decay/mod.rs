@@ -14,6 +14,7 @@ pub mod noise;
 pub mod shading;
 pub mod texture;
 
+pub use composite::Transition;
 pub use degree::Diffusion;
 pub use shading::ShadingParams;
 pub use texture::{DecayClass, Style};
@@ -79,6 +80,8 @@ pub struct Prepared {
     pub draws: u64,
     /// Per-pixel rate (the user's regularisation map), if any.
     pub rate: Option<Image>,
+    /// The stained zone around the decay.
+    pub transition: Transition,
     params: DecayParams,
 }
 
@@ -102,6 +105,9 @@ pub struct Inputs<'a> {
     pub degree: Option<&'a Image>,
     /// Spatial regularisation (mean of its colour channels): 0.5 = normal speed, 1 = twice, 0 = none.
     pub rate: Option<&'a Image>,
+    /// The stained zone around the decay (e.g. measured on an exemplar by
+    /// [`texture::from_exemplar`]); default: the class's.
+    pub transition: Option<Transition>,
 }
 
 /// Check sizes, make or take the texture, estimate the shading and the
@@ -165,6 +171,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         degree,
         draws,
         rate,
+        transition: inputs.transition.unwrap_or_else(|| params.class.transition()),
         params: params.clone(),
     })
 }
@@ -188,7 +195,14 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
     let mut out = Vec::with_capacity(frames);
     for k in 0..frames {
         let degree = paced(&simulated, k, ends, &prep.onset, &prep.mask);
-        let image = composite::composite(&prep.photo, &prep.photo_lab, &prep.texture_lab, &prep.onset, &prep.shading, &degree);
+        let layers = composite::Layers {
+            texture_lab: &prep.texture_lab,
+            onset: &prep.onset,
+            shading: &prep.shading,
+            transition: prep.transition,
+            seed,
+        };
+        let image = composite::composite(&prep.photo, &prep.photo_lab, &layers, &degree);
         out.push(Frame { degree, image });
         if let Some(p) = progress {
             p(k as u64 + 1, frames as u64);

@@ -13,6 +13,7 @@
 //! between them, moss at the heart of each clump, paint flakes one flake at
 //! a time.
 
+use super::composite::Transition;
 use super::noise::{mix3, ramp, smoothstep, Layer};
 use crate::image::Image;
 use crate::synth::{OptimizeParams, Synthesis};
@@ -52,6 +53,20 @@ impl DecayClass {
             DecayClass::Rust | DecayClass::Mossy => 0.0,
             DecayClass::Peeling => 0.3,
             DecayClass::Cracked => 0.5,
+        }
+    }
+
+    /// The stained zone around the class's decay ([`Transition`]), in
+    /// pixels of the texture (whose features are sized in pixels too):
+    /// rust bleeds a translucent orange-brown glaze a few pixels into the
+    /// paint; a flake casts a thin shadow down-right from its lifted lip;
+    /// moss leaves a damp, darker olive rim; cracks gather a little grime.
+    pub fn transition(self) -> Transition {
+        match self {
+            DecayClass::Rust => Transition { width: 9.0, tint: [0.85, 0.45, 0.16], strength: 1.0, offset: [0.0, 0.0] },
+            DecayClass::Peeling => Transition { width: 1.2, tint: [0.45, 0.43, 0.4], strength: 0.8, offset: [1.5, 1.5] },
+            DecayClass::Cracked => Transition { width: 1.0, tint: [0.62, 0.6, 0.57], strength: 0.6, offset: [0.0, 0.0] },
+            DecayClass::Mossy => Transition { width: 4.0, tint: [0.5, 0.56, 0.32], strength: 0.6, offset: [0.0, 0.0] },
         }
     }
 
@@ -232,7 +247,8 @@ fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let shade = 1.0 + 0.22 * grain + 0.1 * fine;
     c = c.map(|v| v * shade);
     let patches = g.layer(5).fbm(x, y, 70.0 * s, 4, 0.5);
-    let onset = 0.42 - 0.55 * patches + 0.12 * fine + 0.08 * grain - 0.1 * crust;
+    let ragged = g.layer(7).fbm(x, y, 2.5, 2, 0.5);
+    let onset = 0.42 - 0.55 * patches + 0.12 * fine + 0.08 * ragged - 0.1 * crust;
     [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
 }
 
@@ -306,10 +322,15 @@ fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
 
 /// Moss: cushions of tiny bumps (cellular noise at 3-4 px: lit yellow-green
 /// tips, dark green gaps) in clumps from warped fBm, darker where a clump
-/// thins out, over dark soil; clumps grow outward from their centres.
+/// thins out, over dark soil; each cushion is lit from the top left and
+/// shades itself on its lower right; clumps grow outward from their centres.
 fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let clump = g.layer(0).warped(x, y, 45.0 * s, 5, 20.0 * s);
+    // The cushion's height falls with the clump field: its slope towards
+    // the light (the field a few pixels up-left) lights or shades it.
+    let towards_light = g.layer(0).warped(x - 3.0 * s, y - 3.0 * s, 45.0 * s, 5, 20.0 * s) - clump;
+    let relief = (1.0 - 2.5 * towards_light).clamp(0.6, 1.25);
     let cover = smoothstep(-0.25, 0.05, clump);
     // Tips of two sizes, their size varying across the cushion.
     let (b1, b2) = (g.layer(1).worley(x, y, 3.0), g.layer(5).worley(x, y, 5.0));
@@ -318,16 +339,18 @@ fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let bump = b1;
     let hue = g.layer(2).fbm(x, y, 60.0 * s, 3, 0.5);
     let yellow = (0.35 * g.style.variant + 0.25 * hue).clamp(0.0, 1.0);
-    let dark = [0.10, 0.16, 0.04];
-    let mid = mix3([0.28, 0.42, 0.08], [0.42, 0.48, 0.10], yellow);
-    let light = mix3([0.55, 0.68, 0.18], [0.72, 0.74, 0.26], yellow);
+    let dark = [0.07, 0.10, 0.03];
+    let mid = mix3([0.24, 0.33, 0.07], [0.34, 0.38, 0.09], yellow);
+    let light = mix3([0.48, 0.58, 0.16], [0.60, 0.63, 0.22], yellow);
     let thick = smoothstep(-0.2, 0.4, clump);
-    let moss = ramp(&[(0.0, dark), (0.5, mid), (1.0, light)], tip * (0.55 + 0.45 * thick) + 0.1 * bump.id);
+    // Tips blur together into a fuzz at 1:1: half their contrast, plus fine fibres.
+    let fuzz = g.layer(7).fbm(x, y, 1.5, 2, 0.5);
+    let moss = ramp(&[(0.0, dark), (0.5, mid), (1.0, light)], 0.2 + 0.5 * tip * (0.55 + 0.45 * thick) + 0.1 * bump.id + 0.15 * fuzz);
     let soil_m = g.layer(3).fbm(x, y, 5.0, 3, 0.5);
     let soil = [0.16 + 0.05 * soil_m, 0.14 + 0.04 * soil_m, 0.08 + 0.03 * soil_m];
-    let c = mix3(soil, moss, cover);
-    let grain = g.layer(4).white(x as i32, y as i32) - 0.5;
-    let onset = 0.5 - 0.55 * clump + 0.06 * grain;
+    let c = mix3(soil, moss.map(|v| v * relief), cover);
+    let ragged = g.layer(4).fbm(x, y, 2.5, 2, 0.5);
+    let onset = 0.5 - 0.55 * clump + 0.14 * ragged;
     [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
 }
 
