@@ -2,6 +2,7 @@
 
 use crate::output::{check_outputs, manifest_path, parse_size, save, save_png, write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
+use patina::decay::exemplar::{from_exemplar, FromExemplar};
 use patina::decay::{self, degree::Diffusion, texture, DecayClass, DecayParams, Inputs, ShadingParams};
 use patina::image::color::{linear_to_srgb, luminance};
 use patina::image::io::{self, BitDepth};
@@ -113,13 +114,16 @@ pub fn run(args: Args) -> Result<()> {
     manifest.timings_ms.insert("load".into(), clock.lap());
 
     let synthesized = match &exemplar {
-        Some(ex) => {
-            Some(with_bar("texture", |report| texture::from_exemplar(ex, photo.width(), photo.height(), args.seed, false, Some(report)))?)
-        }
+        Some(ex) => Some(with_bar("texture", |report| from_exemplar(ex, photo.width(), photo.height(), args.seed, false, Some(report)))?),
         None => None,
     };
-    let inputs_lib =
-        Inputs { mask: mask.as_ref(), texture: synthesized.as_ref(), degree: painting.as_ref(), rate: rate.as_ref(), transition: None };
+    let inputs_lib = Inputs {
+        mask: mask.as_ref(),
+        texture: synthesized.as_ref().map(|s| &s.texture),
+        degree: painting.as_ref(),
+        rate: rate.as_ref(),
+        transition: synthesized.as_ref().and_then(|s| s.transition),
+    };
     let prepared = decay::prepare(&photo, inputs_lib, &params, args.seed)?;
     manifest.timings_ms.insert("prepare".into(), clock.lap());
     let frames = with_bar("decay", |report| decay::sequence(&prepared, args.frames, args.seed, Some(report)))?;
@@ -140,6 +144,16 @@ pub fn run(args: Args) -> Result<()> {
     p["texture_source"] = json!(if exemplar.is_some() { "exemplar" } else { "procedural" });
     if exemplar.is_none() {
         p["style"] = json!(decay::Style::draw(args.seed));
+    }
+    p["transition"] = json!(prepared.transition);
+    p["transition_source"] = json!(match &synthesized {
+        Some(FromExemplar { transition: Some(_), .. }) => "exemplar",
+        _ => "class",
+    });
+    if let Some(s) = &synthesized {
+        save_png(&s.age, dir.join("exemplar_age.png"), BitDepth::Eight)?;
+        manifest.outputs.push("exemplar_age.png".into());
+        p["lighting"] = json!(s.lighting);
     }
     p["degree_source"] = json!(if painting.is_some() { "painting" } else { "algorithm1" });
     manifest.params = p;
@@ -216,7 +230,9 @@ pub fn run_texture(args: TextureArgs) -> Result<()> {
                 return Err(Error::invalid("--offset applies to procedural textures, not to --exemplar"));
             }
             let ex = crate::input::load(path)?;
-            with_bar("texture", |report| texture::from_exemplar(&ex, w, h, args.seed, args.tile, Some(report)))?
+            let made = with_bar("texture", |report| from_exemplar(&ex, w, h, args.seed, args.tile, Some(report)))?;
+            manifest.metrics.insert("lighting".into(), json!(made.lighting));
+            made.texture
         }
         None => texture::generate(args.class, args.seed, args.offset.0, args.offset.1, w, h)?,
     };

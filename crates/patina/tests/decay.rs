@@ -344,10 +344,10 @@ fn edge_steps(tex: &Image) -> (f32, f32) {
 
 #[test]
 fn an_exemplar_texture_can_tile_colour_and_onset() {
-    use patina::decay::texture::from_exemplar;
+    use patina::decay::exemplar::from_exemplar;
     let exemplar = generate(DecayClass::Rust, 4, 0, 0, 96, 96).unwrap().select_channels(0..3);
-    let tiled = from_exemplar(&exemplar, 144, 128, 2, true, None).unwrap();
-    let plain = from_exemplar(&exemplar, 144, 128, 2, false, None).unwrap();
+    let tiled = from_exemplar(&exemplar, 144, 128, 2, true, None).unwrap().texture;
+    let plain = from_exemplar(&exemplar, 144, 128, 2, false, None).unwrap().texture;
     let ((tc, to), (pc, po)) = (edge_steps(&tiled), edge_steps(&plain));
     assert!(tc < 1.6 && to < 1.5, "tileable: steps across the edges {tc:.2} (colour), {to:.2} (onset) of the mean");
     assert!(pc > 1.5 * tc && po > 3.0 * to, "the check cannot tell plain ({pc:.2}, {po:.2}) from tileable ({tc:.2}, {to:.2})");
@@ -359,4 +359,74 @@ fn an_exemplar_texture_can_tile_colour_and_onset() {
     };
     let (middle, corner) = (std(&tiled, 56, 48), std(&tiled, 0, 0));
     assert!(middle > 0.4 * corner, "the onset flattens where the copies blend: std {middle:.3} against {corner:.3} at a corner");
+}
+
+/// Stucco with rust blobs on about 15% of it (the ground truth mask), and
+/// a stain of `tint` bleeding out of the blobs: the factor 1 + (tint - 1)
+/// e^(-(d - 1) / 3) at distance d px outside them, up to 12 px.
+fn stained_rust_exemplar(tint: [f32; 3], seed: u64) -> (Image, Mask) {
+    use patina::image::color::srgb_to_linear;
+    use patina::samples::{stucco, weather, Weathering};
+    let (mut img, rust) = weather(&stucco(160, 160, seed), Weathering::Rust, 0.15, seed);
+    let distance = rust.signed_distance();
+    for (i, px) in img.data_mut().chunks_exact_mut(3).enumerate() {
+        let d = -distance[i];
+        if d > 0.0 && d <= 12.0 {
+            let k = (-(d - 1.0) / 3.0).exp();
+            for c in 0..3 {
+                px[c] = linear_to_srgb(srgb_to_linear(px[c]) * (1.0 + (tint[c] - 1.0) * k));
+            }
+        }
+    }
+    (img, rust)
+}
+
+#[test]
+fn an_exemplar_decays_oldest_first_with_its_own_stain_and_without_its_lighting() {
+    use patina::decay::exemplar::{from_exemplar, measure_transition};
+    use patina::metrics::nonstationarity;
+    use patina::weather::{age_map, AgeParams};
+    let tint = [0.9, 0.6, 0.35];
+    let (exemplar, rust) = stained_rust_exemplar(tint, 6);
+    let made = from_exemplar(&exemplar, 128, 128, 1, false, None).unwrap();
+    // Oldest first: texels coloured like the rust get early onsets, texels
+    // coloured like the clean stucco late ones.
+    let lab = to_lab(&exemplar);
+    let class_mean = |inside: bool| {
+        let px: Vec<&[f32]> = lab.data().chunks_exact(3).zip(rust.bits()).filter(|(_, &r)| r == inside).map(|(p, _)| p).collect();
+        [0, 1, 2].map(|c| px.iter().map(|p| p[c]).sum::<f32>() / px.len() as f32)
+    };
+    let (rusty, clean) = (class_mean(true), class_mean(false));
+    let out_lab = to_lab(&made.texture.select_channels(0..3));
+    let (mut sums, mut counts) = ([0f32; 2], [0usize; 2]);
+    for (p, o) in out_lab.data().chunks_exact(3).zip(made.texture.data().chunks_exact(4).map(|t| t[3])) {
+        let dist = |m: [f32; 3]| (0..3).map(|c| (p[c] - m[c]).powi(2)).sum::<f32>();
+        let k = usize::from(dist(clean) < dist(rusty));
+        sums[k] += o;
+        counts[k] += 1;
+    }
+    let (old, young) = (sums[0] / counts[0].max(1) as f32, sums[1] / counts[1].max(1) as f32);
+    assert!(counts[0] > 128 * 128 / 20, "the rust is missing from the synthesized texture: {counts:?}");
+    assert!(old + 0.3 < young, "rust-coloured texels should appear first: onset {old:.2} against {young:.2} for clean ones");
+    // The stain measured on the exemplar has the injected tint's colour:
+    // every channel darkened, blue most and red least, over a few pixels.
+    // (Its strength is less than injected: the age map counts the inner,
+    // strongest part of the stain as decay, so it is in the texture, and
+    // the zone measured outside it is the fainter rest.)
+    let age = age_map(&exemplar, &AgeParams::default()).unwrap().map;
+    let t = measure_transition(&exemplar, &age).expect("clean surface around the rust");
+    let [r, g, b] = t.tint;
+    assert!(r < 1.0 && b < g && g < r && 1.0 - b >= 0.3 * (1.0 - tint[2]), "tint {:?} for an injected {tint:?}", t.tint);
+    assert!((1.0..=10.0).contains(&t.width), "stain width {} px for an injected e-folding of 3 px", t.width);
+    // A clean exemplar has no stain to measure: its tint is near 1.
+    let (plain, _) = stained_rust_exemplar([1.0; 3], 6);
+    let t_plain = measure_transition(&plain, &age_map(&plain, &AgeParams::default()).unwrap().map).expect("clean surface");
+    assert!(t_plain.tint.iter().all(|v| (v - 1.0).abs() < 0.5 * (1.0 - tint[2])), "a stain found where none is: {:?}", t_plain.tint);
+    // Lighting: under a vignette and a ramp, the texture keeps at most half
+    // of the exemplar's large-scale variation.
+    let lit = patina::samples::lit(&exemplar);
+    let relit = from_exemplar(&lit, 128, 128, 1, false, None).unwrap();
+    let (before, after) = (nonstationarity(&lit), nonstationarity(&relit.texture.select_channels(0..3)));
+    assert!(after <= 0.5 * before, "the exemplar's lighting came along: {after:.3} against {before:.3}");
+    assert!(relit.lighting.is_some());
 }

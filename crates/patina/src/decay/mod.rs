@@ -10,6 +10,7 @@
 
 pub mod composite;
 pub mod degree;
+pub mod exemplar;
 pub mod noise;
 pub mod shading;
 pub mod texture;
@@ -99,14 +100,14 @@ pub struct Inputs<'a> {
     /// Object mask (white = may decay); default: the whole photo.
     pub mask: Option<&'a Mask>,
     /// A ready decay texture (sRGB + onset, the photo's size), e.g. from
-    /// [`texture::from_exemplar`]; default: the procedural generator.
+    /// [`exemplar::from_exemplar`]; default: the procedural generator.
     pub texture: Option<&'a Image>,
     /// A painted initial degree map (mean of its colour channels, in [0, 1]); default: Algorithm 1.
     pub degree: Option<&'a Image>,
     /// Spatial regularisation (mean of its colour channels): 0.5 = normal speed, 1 = twice, 0 = none.
     pub rate: Option<&'a Image>,
     /// The stained zone around the decay (e.g. measured on an exemplar by
-    /// [`texture::from_exemplar`]); default: the class's.
+    /// [`exemplar::from_exemplar`]); default: the class's.
     pub transition: Option<Transition>,
 }
 

@@ -5,7 +5,7 @@
 //! learned weights, so each class is a procedural generator built from the
 //! coordinate noise of [`super::noise`], with a few style parameters drawn
 //! from the seed ([`Style`]); or, in exemplar mode, any decay photo is
-//! synthesized to size by the engine ([`from_exemplar`]).
+//! synthesized to size by the engine ([`super::exemplar`]).
 //!
 //! A texture has four channels: sRGB colour and an *onset*, the degree of
 //! decay at which that texel appears (see [`super::composite`]): rust
@@ -16,7 +16,6 @@
 use super::composite::Transition;
 use super::noise::{mix3, ramp, smoothstep, Layer};
 use crate::image::Image;
-use crate::synth::{OptimizeParams, Synthesis};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -154,53 +153,6 @@ pub fn generate(class: DecayClass, seed: u64, x0: i64, y0: i64, width: usize, he
         }
     });
     Ok(img)
-}
-
-/// Synthesize a decay texture of `width` x `height` from a photo of decay
-/// with the engine (texture optimization: stationary and seamless). The
-/// onset channel is a smooth fBm field, so the exemplar's look spreads in
-/// ragged patches. Unlike [`generate`], windows of different sizes are not
-/// parts of one texture. A gray exemplar gives a gray texture.
-///
-/// `tileable`: the colour is synthesized on a torus
-/// ([`Synthesis::tileable`]) and the onset made periodic by blending four
-/// copies of the field, shifted by the tile's width and height, with
-/// bilinear weights (each copy fades out towards the edge where it would
-/// break), rescaled by the weights' norm so its contrast stays even.
-pub fn from_exemplar(
-    exemplar: &Image,
-    width: usize,
-    height: usize,
-    seed: u64,
-    tileable: bool,
-    progress: Option<crate::synth::Progress>,
-) -> Result<Image> {
-    let rgb = crate::image::color::with_colour(exemplar).select_channels(0..3);
-    let mut synth = Synthesis::new(&rgb).size(width, height).seed(seed).tileable(tileable);
-    if let Some(p) = progress {
-        synth = synth.progress(p);
-    }
-    let colour = synth.optimize(&OptimizeParams::default())?.image;
-    let onset = Layer::new(seed, 900);
-    let scale = (width.max(height) as f32 / 4.0).clamp(32.0, 256.0);
-    let field = |x: f32, y: f32| onset.fbm(x, y, scale, 5, 0.55);
-    let (w, h) = (width as f32, height as f32);
-    Ok(Image::from_fn(width, height, CHANNELS, |x, y, p| {
-        p[..3].copy_from_slice(colour.pixel(x, y));
-        let (fx, fy) = (x as f32, y as f32);
-        let f = if tileable {
-            // f(x) and f(x - w) agree at x = 0 with weight (1 - u) and at
-            // x = w with weight u: the blend repeats with period (w, h).
-            let (u, v) = (fx / w, fy / h);
-            let weights = [(1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v];
-            let values = [field(fx, fy), field(fx - w, fy), field(fx, fy - h), field(fx - w, fy - h)];
-            let norm = weights.iter().map(|k| k * k).sum::<f32>().sqrt();
-            weights.iter().zip(values).map(|(k, f)| k * f).sum::<f32>() / norm
-        } else {
-            field(fx, fy)
-        };
-        p[3] = (0.45 - 0.6 * f).clamp(0.02, 0.95);
-    }))
 }
 
 /// A class's texel function and what it reads: the seed and its style.
