@@ -1,7 +1,7 @@
 //! Degree maps D in [0, 1]: where and how far the surface has decayed
 //! (Hao et al. 2023, sections III-C2 and III-C4).
 
-use super::noise::Layer;
+use super::noise::{smoothstep, Layer};
 use crate::image::filter::gaussian_blur;
 use crate::image::resample::{resize, Filter};
 use crate::image::{Image, Mask};
@@ -16,6 +16,11 @@ pub const GROWTH_THRESHOLD: f32 = 0.25;
 /// an exact quantile threshold.
 const MAX_DRAWS: u64 = 64;
 
+/// Amplitude of the fine fBm that roughens Algorithm 1's blob outlines.
+const RAGGED: f32 = 0.06;
+/// Width, in pattern units above the threshold, over which a blob's degree fades in.
+const FEATHER: f32 = 0.04;
+
 /// Algorithm 1: the initial degree map of a `mask`.
 ///
 /// A uniform random pattern on a coarse grid (one cell per `continuity` x
@@ -26,6 +31,14 @@ const MAX_DRAWS: u64 = 64;
 /// the exact quantile). Covered pixels are filled with Perlin fBm mapped to
 /// [0.1, 1]; everything else, and everything outside the mask, is 0.
 /// Returns the map and the number of draws it took.
+///
+/// patina adds two things to the paper's step, because a hard threshold of
+/// a cubic upsample gives round blobs with smooth outlines, which showed
+/// as stickers in frame 0: the pattern is roughened by fine fBm
+/// ([`RAGGED`] of the pattern's range, at a quarter of a cell) before the
+/// threshold, and the fill fades in over [`FEATHER`] of the pattern above
+/// it, so a blob's degree rises from 0 at its ragged edge and its texels
+/// appear there by their onsets, not all at once.
 pub fn initial(mask: &Mask, area: f32, continuity: f32, seed: u64) -> Result<(Image, u64)> {
     if !(0.0..=1.0).contains(&area) || !area.is_finite() {
         return Err(Error::invalid(format!("--area must be in [0, 1], got {area}")));
@@ -59,11 +72,13 @@ pub fn initial(mask: &Mask, area: f32, continuity: f32, seed: u64) -> Result<(Im
         }
     };
     let (fine, threshold) = pattern;
-    let fill = Layer::new(seed, 0xf1);
+    let (fill, rough) = (Layer::new(seed, 0xf1), Layer::new(seed, 0xf2));
     let scale = cell.max(8.0);
     let degree = Image::from_fn(w, h, 1, |x, y, p| {
-        p[0] = if mask.get(x, y) && fine.at(x, y, 0) > threshold {
-            (0.55 + 0.6 * fill.fbm(x as f32, y as f32, scale, 5, 0.5)).clamp(0.1, 1.0)
+        let (fx, fy) = (x as f32, y as f32);
+        let above = fine.at(x, y, 0) + RAGGED * rough.fbm(fx, fy, (0.25 * cell).max(2.0), 3, 0.6) - threshold;
+        p[0] = if mask.get(x, y) && above > 0.0 {
+            (0.55 + 0.6 * fill.fbm(fx, fy, scale, 5, 0.5)).clamp(0.1, 1.0) * smoothstep(0.0, FEATHER, above)
         } else {
             0.0
         };

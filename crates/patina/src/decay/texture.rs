@@ -82,14 +82,16 @@ impl DecayClass {
     /// How far compositing first moves the texture's colours to the
     /// photo's (Reinhard et al. 2001), from 0 (not at all) to 1. The paper
     /// transfers for peeling and cracked, the decay of the object's own
-    /// paint. Peeling's visible texels are the substrate under the paint
-    /// (its paint texels never show), a different material that only takes
-    /// a stain from the paint, so it gets half.
+    /// paint. In patina neither shows the texture's paint: peeling's
+    /// visible texels are the substrate under the paint, a different
+    /// material that only takes a stain from the paint, so it gets half;
+    /// cracked shows only its cracks, dark gaps that the transfer turned
+    /// into saturated lines (dark red on an orange hydrant, navy on white
+    /// stone), so it gets none.
     pub fn colour_transfer(self) -> f32 {
         match self {
-            DecayClass::Cracked => 1.0,
             DecayClass::Peeling => 0.5,
-            DecayClass::Rust | DecayClass::Mossy => 0.0,
+            DecayClass::Cracked | DecayClass::Rust | DecayClass::Mossy => 0.0,
         }
     }
 }
@@ -247,8 +249,11 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
 
 /// Cracked paint or plaster: a warped cellular crack network, large cells
 /// split by a finer network in places, crack width varying along the
-/// crack, tile edges curled up (lighter), fine grain; cracks appear before
-/// the crazed surface between them, and spread as the degree rises.
+/// crack, tile edges curled up (lighter), fine grain. Only the cracks
+/// appear on a photo, their cores first and their edges later, so they
+/// widen as the degree rises; the crazed surface between them is the
+/// photo's own (it never appears: replacing it flattened the object's
+/// relief into washed cells).
 fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let wx = x + 7.0 * s * g.layer(0).fbm(x, y, 30.0 * s, 3, 0.5);
@@ -266,10 +271,12 @@ fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let mottle = g.layer(7).fbm(x, y, 12.0, 3, 0.5);
     let tone = (0.95 + 0.08 * (big.id - 0.5) + 0.05 * mottle + 0.06 * grain) * (1.0 + 0.1 * curl);
     let surface = if g.style.variant < 0.5 { [0.74, 0.70, 0.66] } else { [0.70, 0.67, 0.60] };
-    let c = mix3(surface.map(|c| c * tone), [0.17, 0.14, 0.12], crack);
+    // Gaps are darkest at their core and lighter towards their edges.
+    let gap = [0.2, 0.17, 0.14].map(|v| v * (0.7 + 1.4 * (1.0 - crack)));
+    let c = if crack > 0.35 { gap } else { surface.map(|c| c * tone) };
     let spread = g.layer(8).fbm(x, y, 100.0 * s, 3, 0.5);
-    let onset = if crack > 0.2 || edge < 2.5 { 0.25 - 0.45 * spread } else { 0.7 - 0.3 * spread };
-    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
+    let onset = if crack > 0.35 { (0.2 - 0.45 * spread + 0.35 * (1.0 - crack)).clamp(0.02, 0.95) } else { NEVER };
+    [c[0], c[1], c[2], onset]
 }
 
 /// Moss: cushions of tiny bumps (cellular noise at 3-4 px: lit yellow-green
