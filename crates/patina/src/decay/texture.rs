@@ -217,7 +217,7 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
         let (u, v) = g.grain(x, y);
         (u, v, g.layer(1).worley(u, v, 34.0 * s).id)
     };
-    let threshold = 0.05;
+    let threshold = -0.02;
     let (u, v, cell_id) = at(x, y);
     let f = flake_field(u, v, cell_id);
     let flaked = smoothstep(threshold - 0.01, threshold + 0.01, f);
@@ -241,9 +241,12 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let mut c = mix3(paint, under, flaked);
     c = mix3(c, [1.0, 1.0, 1.0], 0.35 * lip);
     // Flakes peel one at a time: the onset is that of the flake's cell. The
-    // paint between flakes never appears: it is the photo's own paint.
+    // paint between flakes, lips included, never appears: it is the
+    // photo's own paint (a lip drawn in the texture's paint read as a white
+    // sticker outline on a photo); the lift shows as the shadow inside the
+    // flake and the class's transition zone outside it.
     let region = g.layer(5).fbm(x, y, 120.0 * s, 3, 0.5);
-    let onset = if flaked > 0.5 || lip > 0.05 { (0.45 - 0.45 * region + 0.35 * (cell_id - 0.5)).clamp(0.02, 0.95) } else { NEVER };
+    let onset = if flaked > 0.5 { (0.32 - 0.45 * region + 0.35 * (cell_id - 0.5)).clamp(0.02, 0.95) } else { NEVER };
     [c[0], c[1], c[2], onset]
 }
 
