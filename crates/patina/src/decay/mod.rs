@@ -192,17 +192,13 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
         diffuser.step(&mut d, seed, k as u64);
         simulated.push(d);
     }
+    let stain = prep.transition.field(prep.photo.width(), prep.photo.height(), seed);
     let ends = (visible_share(&simulated[0], &prep.onset, &prep.mask), visible_share(&simulated[frames - 1], &prep.onset, &prep.mask));
     let mut out = Vec::with_capacity(frames);
     for k in 0..frames {
         let degree = paced(&simulated, k, ends, &prep.onset, &prep.mask);
-        let layers = composite::Layers {
-            texture_lab: &prep.texture_lab,
-            onset: &prep.onset,
-            shading: &prep.shading,
-            transition: prep.transition,
-            seed,
-        };
+        let layers =
+            composite::Layers { texture_lab: &prep.texture_lab, onset: &prep.onset, shading: &prep.shading, stain: stain.as_ref() };
         let image = composite::composite(&prep.photo, &prep.photo_lab, &layers, &degree);
         out.push(Frame { degree, image });
         if let Some(p) = progress {

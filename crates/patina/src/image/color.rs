@@ -79,7 +79,11 @@ fn lab_f_inv(t: f32) -> f32 {
 
 /// sRGB-encoded RGB pixel to CIE L*a*b* (L in [0, 100]).
 pub fn srgb_pixel_to_lab(rgb: [f32; 3]) -> [f32; 3] {
-    let [r, g, b] = rgb.map(srgb_to_linear);
+    linear_pixel_to_lab(rgb.map(srgb_to_linear))
+}
+
+/// Linear RGB pixel to CIE L*a*b* (L in [0, 100]).
+pub fn linear_pixel_to_lab([r, g, b]: [f32; 3]) -> [f32; 3] {
     let x = 0.412_456_4 * r + 0.357_576_1 * g + 0.180_437_5 * b;
     let y = 0.212_672_9 * r + 0.715_152_2 * g + 0.072_175 * b;
     let z = 0.019_333_9 * r + 0.119_192 * g + 0.950_304_1 * b;
