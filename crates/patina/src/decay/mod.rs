@@ -73,7 +73,7 @@ pub struct Prepared {
     pub texture: Image,
     texture_lab: Image,
     onset: Image,
-    /// Relative shading (linear luminance ratio, mean 1 in the log domain).
+    /// Relative shading and fine relief (linear luminance ratio, mean 1 in the log domain; see [`shading::relief`]).
     pub shading: Image,
     /// The initial degree map (frame 0).
     pub degree: Image,
@@ -149,7 +149,13 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         composite::transfer_colour(&mut texture_lab, &photo_lab, &mask, strength);
     }
     let onset = texture.select_channels(3..4);
-    let shading = shading::with_gloss(&shading::estimate(photo, &mask, &params.shading), &mask, params.class.gloss());
+    // The form (shading) and the fine relief both light the decay; the
+    // highlight is removed from their product as the class's gloss says.
+    let form = shading::estimate(photo, &mask, &params.shading);
+    let relief = shading::relief(photo, &mask, &form, shading::RELIEF);
+    let mut lit = form;
+    lit.data_mut().iter_mut().zip(relief.data()).for_each(|(s, r)| *s *= r);
+    let shading = shading::with_gloss(&lit, &mask, params.class.gloss());
     let (degree, draws) = match inputs.degree {
         Some(painting) => (degree::from_painting(painting, &mask)?, 0),
         None => degree::initial(&mask, params.area, params.continuity, seed)?,
