@@ -281,6 +281,36 @@ fn stain_profile(class: DecayClass, transition: Transition) -> Vec<f32> {
 }
 
 #[test]
+fn decayed_texels_keep_deepening_after_they_appear() {
+    // Texels that show at D = 0.5 change the photo less there than at D = 1.
+    let input = Image::from_fn(W, H, 3, |_, _, p| p.fill(0.6));
+    let mask = Mask::filled(W, H, true);
+    let prep = decay::prepare(&input, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(DecayClass::Rust), 2).unwrap();
+    let (lab_in, lab_tex) = (to_lab(&input), to_lab(&prep.texture));
+    let onset = prep.texture.select_channels(3..4);
+    let shading = Image::from_fn(W, H, 1, |_, _, p| p[0] = 1.0);
+    let at = |d: f32| to_lab(&plain(&input, &lab_in, &lab_tex, &onset, &shading, &Image::from_fn(W, H, 1, |_, _, p| p[0] = d)));
+    let (half, full) = (at(0.5), at(1.0));
+    let (mut n, mut change_half, mut change_full) = (0, 0.0, 0.0);
+    for i in 0..W * H {
+        if decay::composite::weight(0.5, onset.data()[i]) >= 1.0 {
+            let delta = |img: &Image| (0..3).map(|c| (img.data()[i * 3 + c] - lab_in.data()[i * 3 + c]).powi(2)).sum::<f32>().sqrt();
+            n += 1;
+            change_half += delta(&half);
+            change_full += delta(&full);
+        }
+    }
+    assert!(n > W * H / 10, "too few texels show at D = 0.5: {n}");
+    assert!(
+        change_half < 0.85 * change_full,
+        "no deepening: Delta E {} at D = 0.5 against {} at D = 1",
+        change_half / n as f32,
+        change_full / n as f32
+    );
+    assert!(change_half > 0.5 * change_full, "young decay is too faint: {} against {}", change_half / n as f32, change_full / n as f32);
+}
+
+#[test]
 fn decay_has_a_soft_stained_edge_of_its_class_width() {
     for class in [DecayClass::Rust, DecayClass::Mossy] {
         let t = class.transition();

@@ -21,8 +21,10 @@
 //! texture's per-texel onset (see [`super::texture`]). A half-decayed
 //! region then shows half of the texels fully decayed (cracks before the
 //! crazed paint between them, rust at its pits first) rather than the whole
-//! texture at half opacity, which reads as a ghost of the texture. w is
-//! monotone in D, 0 at D = 0 and 1 at D = 1.
+//! texture at half opacity, which reads as a ghost of the texture. A texel
+//! that has appeared then thickens from 0.6 to full opacity as D rises
+//! 0.35 past its onset ([`maturity`]). w is monotone in D, 0 at D = 0 and
+//! 1 at D = 1.
 //!
 //! Around what shows, a [`Transition`] zone stains the photo (the paper's
 //! generator has none, so its decay reads as stickers): rust bleeds an
@@ -143,6 +145,26 @@ fn coarse_blur(img: &Image, sigma: f32) -> Image {
     gaussian_blur(img, sigma)
 }
 
+/// Opacity of a texel that has just appeared ([`maturity`] 0).
+const YOUNG: f32 = 0.6;
+/// Degree, past a texel's onset, over which it matures to full opacity.
+const MATURING: f32 = 0.35;
+
+/// How far a texel that appeared at `onset` has matured at `degree`: 0
+/// when it appears, 1 once the degree is [`MATURING`] past its onset (and
+/// at D = 1 for every texel). Young decay is a thinner layer (rust a
+/// translucent film before it scales, moss sparse before it cushions),
+/// so a texel's opacity goes from [`YOUNG`] to 1 as it matures: decayed
+/// areas keep deepening after they first show, instead of arriving at
+/// full strength in their first frame.
+#[inline]
+pub fn maturity(degree: f32, onset: f32) -> f32 {
+    if onset >= 1.0 {
+        return 0.0;
+    }
+    smoothstep(onset, (onset + MATURING).min(1.0), degree)
+}
+
 /// Half-width of the onset transition in degree units.
 const ONSET_SOFTNESS: f32 = 0.04;
 
@@ -233,7 +255,7 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
     out.data_mut().par_chunks_mut(w * channels).enumerate().for_each(|(y, row)| {
         for (x, px) in row.chunks_exact_mut(channels).enumerate() {
             let i = y * w + x;
-            let wt = visible.data()[i];
+            let wt = visible.data()[i] * (YOUNG + (1.0 - YOUNG) * maturity(degree.data()[i], layers.onset.data()[i]));
             // Below 1/500 the glaze changes no 8-bit level: skip its colour work.
             let b = stain.as_ref().map_or(0.0, |s| s[i]).max(0.0);
             let b = if b < 0.002 { 0.0 } else { b };
