@@ -32,7 +32,7 @@ fn diffusion_table() {
     for side in [512usize, 1024, 2048] {
         let c = side as f32 / 2.0;
         let mask = patina::Mask::from_fn(side, side, |x, y| (x as f32 - c).powi(2) + (y as f32 - c).powi(2) < (0.45 * side as f32).powi(2));
-        let (mut d, _) = degree::initial(&mask, 0.2, 0.06, 1).expect("initial");
+        let (mut d, _) = degree::initial(&mask, 0.2, 0.06, None, 1).expect("initial");
         let t = Instant::now();
         let diffuser = degree::Diffuser::new(&mask, None, &decay::Diffusion::default());
         for k in 1..=8 {

@@ -281,6 +281,33 @@ fn stain_profile(class: DecayClass, transition: Transition) -> Vec<f32> {
 }
 
 #[test]
+fn moss_starts_in_the_shade_and_cracks_anywhere() {
+    // A plate whose left half is in shade (a third of the light), with
+    // fine grain: Algorithm 1's blobs, over 4 seeds.
+    let input = Image::from_fn(W, H, 3, |x, y, p| {
+        let light = if x < W / 2 { 0.15 } else { 0.45 };
+        p.fill(linear_to_srgb(light * (1.0 + 0.1 * (value_noise(3, x as f32 / 2.0, y as f32 / 2.0) - 0.5))));
+    });
+    let mask = Mask::filled(W, H, true);
+    let shade_share = |class: DecayClass| {
+        let (mut left, mut all) = (0usize, 0usize);
+        for seed in 0..4 {
+            let prep = decay::prepare(&input, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(class), seed).unwrap();
+            for (i, &d) in prep.degree.data().iter().enumerate() {
+                if d > 0.0 {
+                    all += 1;
+                    left += usize::from(i % W < W / 2);
+                }
+            }
+        }
+        left as f32 / all.max(1) as f32
+    };
+    let (moss, cracks) = (shade_share(DecayClass::Mossy), shade_share(DecayClass::Cracked));
+    assert!(moss > 0.7, "moss should start in the shaded half: {moss:.2} of it there");
+    assert!((0.25..0.75).contains(&cracks), "cracks have no side: {cracks:.2} in the shade");
+}
+
+#[test]
 fn decayed_texels_keep_deepening_after_they_appear() {
     // Texels that show at D = 0.5 change the photo less there than at D = 1.
     let input = Image::from_fn(W, H, 3, |_, _, p| p.fill(0.6));

@@ -2,6 +2,7 @@
 //! (Hao et al. 2023, sections III-C2 and III-C4).
 
 use super::noise::{smoothstep, Layer};
+use super::texture::DecayClass;
 use crate::image::filter::gaussian_blur;
 use crate::image::resample::{resize, Filter};
 use crate::image::{Image, Mask};
@@ -21,6 +22,37 @@ const RAGGED: f32 = 0.06;
 /// Width, in pattern units above the threshold, over which a blob's degree fades in.
 const FEATHER: f32 = 0.04;
 
+/// Weight of a class's affinity map in Algorithm 1's pattern (which spans
+/// about [0, 1]).
+pub const AFFINITY: f32 = 0.3;
+
+/// Where a class's decay starts, from the light on the object (`form`:
+/// the shading, `relief`: the fine relief, both linear luminance ratios;
+/// see [`super::shading`]): moss grows in shade and recesses (dark form
+/// and relief), rust starts in crevices, seams and round bolts (dark
+/// relief), flakes lift at edges (strong relief either way); cracks have
+/// no preference (`None`). The map is the log light's z-score inside the
+/// mask, halved and held to [-1, 1]; 0 outside.
+pub fn affinity(class: DecayClass, form: &Image, relief: &Image, mask: &Mask) -> Option<Image> {
+    let raw: Box<dyn Fn(usize) -> f32> = match class {
+        DecayClass::Mossy => Box::new(|i| -(form.data()[i] * relief.data()[i]).max(1e-6).ln()),
+        DecayClass::Rust => Box::new(|i| -relief.data()[i].max(1e-6).ln()),
+        DecayClass::Peeling => Box::new(|i| relief.data()[i].max(1e-6).ln().abs()),
+        DecayClass::Cracked => return None,
+    };
+    let values: Vec<f32> = (0..mask.bits().len()).map(&raw).collect();
+    let inside: Vec<f64> = values.iter().zip(mask.bits()).filter(|(_, &m)| m).map(|(&v, _)| v as f64).collect();
+    let n = inside.len().max(1) as f64;
+    let mean = inside.iter().sum::<f64>() / n;
+    let std = (inside.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-6);
+    let data = values
+        .iter()
+        .zip(mask.bits())
+        .map(|(&v, &m)| if m { ((v as f64 - mean) / std / 2.0).clamp(-1.0, 1.0) as f32 } else { 0.0 })
+        .collect();
+    Some(Image::from_data(mask.width(), mask.height(), 1, data).expect("one value per pixel"))
+}
+
 /// Algorithm 1: the initial degree map of a `mask`.
 ///
 /// A uniform random pattern on a coarse grid (one cell per `continuity` x
@@ -39,7 +71,12 @@ const FEATHER: f32 = 0.04;
 /// threshold, and the fill fades in over [`FEATHER`] of the pattern above
 /// it, so a blob's degree rises from 0 at its ragged edge and its texels
 /// appear there by their onsets, not all at once.
-pub fn initial(mask: &Mask, area: f32, continuity: f32, seed: u64) -> Result<(Image, u64)> {
+///
+/// `affinity` (optional, about -1..1 per pixel, see [`affinity`]) adds
+/// [`AFFINITY`] times its blur at a third of a cell to the pattern before
+/// the threshold, so blobs start where the material would: moss in shade
+/// and recesses, rust in crevices and seams. The area is still met.
+pub fn initial(mask: &Mask, area: f32, continuity: f32, affinity: Option<&Image>, seed: u64) -> Result<(Image, u64)> {
     if !(0.0..=1.0).contains(&area) || !area.is_finite() {
         return Err(Error::invalid(format!("--area must be in [0, 1], got {area}")));
     }
@@ -53,12 +90,16 @@ pub fn initial(mask: &Mask, area: f32, continuity: f32, seed: u64) -> Result<(Im
     }
     let cell = (continuity * w.max(h) as f32).max(1.0);
     let (gw, gh) = ((w as f32 / cell).ceil() as usize + 1, (h as f32 / cell).ceil() as usize + 1);
+    let bias = affinity.map(|a| gaussian_blur(a, cell / 3.0));
     let mut draws = 0;
     let pattern = loop {
         draws += 1;
         let mut g = rng::generator(seed, &[0xa1, draws]);
         let coarse = Image::from_fn(gw, gh, 1, |_, _, p| p[0] = g.gen::<f32>());
-        let fine = resize(&coarse, w, h, Filter::Cubic)?;
+        let mut fine = resize(&coarse, w, h, Filter::Cubic)?;
+        if let Some(b) = &bias {
+            fine.data_mut().iter_mut().zip(b.data()).for_each(|(v, a)| *v += AFFINITY * a);
+        }
         let covered = fine.data().iter().zip(mask.bits()).filter(|(&v, &m)| m && v > 1.0 - area).count();
         let fraction = covered as f32 / inside as f32;
         if (fraction - area).abs() <= 0.25 * area || area == 0.0 {
@@ -223,7 +264,7 @@ mod tests {
     fn initial_map_covers_about_the_area_asked_inside_the_mask_only() {
         let mask = disc(80, 60);
         for seed in 0..5 {
-            let (d, _) = initial(&mask, 0.25, 0.1, seed).unwrap();
+            let (d, _) = initial(&mask, 0.25, 0.1, None, seed).unwrap();
             let covered = d.data().iter().filter(|&&v| v > 0.0).count() as f32 / mask.count() as f32;
             assert!((covered - 0.25).abs() <= 0.25 * 0.25 + 1e-6, "seed {seed}: covered {covered}");
             for (v, m) in d.data().iter().zip(mask.bits()) {
@@ -267,7 +308,7 @@ mod tests {
         // against the explicit finite-difference solution (measured: the
         // mean error is under 5% of the mean change).
         let mask = disc(80, 60);
-        let (d0, _) = initial(&mask, 0.2, 0.15, 4).unwrap();
+        let (d0, _) = initial(&mask, 0.2, 0.15, None, 4).unwrap();
         let params = Diffusion { spread: 0.06, growth: 0.0 };
         let mut d = d0.clone();
         Diffuser::new(&mask, None, &params).step(&mut d, 1, 1);
@@ -288,7 +329,7 @@ mod tests {
     #[test]
     fn diffusion_spreads_decay_without_leaving_the_mask_or_retreating() {
         let mask = disc(80, 60);
-        let (mut d, _) = initial(&mask, 0.2, 0.15, 3).unwrap();
+        let (mut d, _) = initial(&mask, 0.2, 0.15, None, 3).unwrap();
         let before = d.clone();
         Diffuser::new(&mask, None, &Diffusion::default()).step(&mut d, 3, 0);
         let count = |img: &Image| img.data().iter().filter(|&&v| v > 0.0).count();
