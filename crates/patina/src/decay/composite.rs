@@ -38,7 +38,7 @@
 
 use super::noise::{smoothstep, Layer};
 use crate::image::color::{lab_pixel_to_srgb, linear_pixel_to_lab, srgb_to_linear};
-use crate::image::filter::gaussian_blur;
+use crate::image::filter::{gaussian_blur, shrunk_blur};
 use crate::image::{Image, Mask};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -124,25 +124,14 @@ impl StainField {
     }
 }
 
-/// A Gaussian blur of `img` by `sigma` computed at 1/f of the size, f =
-/// floor(sigma / 2) (the same construction as the large-sigma path of
-/// [`gaussian_blur`], from a smaller sigma): a stain's rim is smooth, and
-/// the direct blur of a 3-megapixel frame at sigma 9 took 0.6 s, four
-/// times the rest of the frame.
+/// A Gaussian blur of `img` by `sigma` computed on a copy shrunk by f =
+/// floor(sigma / 2) ([`shrunk_blur`], the construction of
+/// [`gaussian_blur`]'s wide blurs, from a smaller sigma): a stain's rim is
+/// smooth, and the direct blur of a 3-megapixel frame at sigma 9 took
+/// 0.6 s, four times the rest of the frame.
 fn coarse_blur(img: &Image, sigma: f32) -> Image {
-    use crate::image::resample::{resize, Filter};
     let f = (sigma / 2.0).floor();
-    let (w, h) = img.size();
-    let (sw, sh) = ((w as f32 / f).ceil() as usize, (h as f32 / f).ceil() as usize);
-    if f >= 2.0 && sw >= 2 && sh >= 2 {
-        let inner = (sigma * sigma - f * f / 3.0).sqrt() / f;
-        if let Ok(small) = resize(img, sw, sh, Filter::Linear) {
-            if let Ok(out) = resize(&gaussian_blur(&small, inner), w, h, Filter::Linear) {
-                return out;
-            }
-        }
-    }
-    gaussian_blur(img, sigma)
+    (f >= 2.0).then(|| shrunk_blur(img, sigma, f)).flatten().unwrap_or_else(|| gaussian_blur(img, sigma))
 }
 
 /// Opacity of a texel that has just appeared ([`maturity`] 0).

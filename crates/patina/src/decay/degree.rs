@@ -34,13 +34,20 @@ pub const AFFINITY: f32 = 0.3;
 /// no preference (`None`). The map is the log light's z-score inside the
 /// mask, halved and held to [-1, 1]; 0 outside.
 pub fn affinity(class: DecayClass, form: &Image, relief: &Image, mask: &Mask) -> Option<Image> {
-    let raw: Box<dyn Fn(usize) -> f32> = match class {
-        DecayClass::Mossy => Box::new(|i| -(form.data()[i] * relief.data()[i]).max(1e-6).ln()),
-        DecayClass::Rust => Box::new(|i| -relief.data()[i].max(1e-6).ln()),
-        DecayClass::Peeling => Box::new(|i| relief.data()[i].max(1e-6).ln().abs()),
-        DecayClass::Cracked => return None,
-    };
-    let values: Vec<f32> = (0..mask.bits().len()).map(&raw).collect();
+    if class == DecayClass::Cracked {
+        return None;
+    }
+    let log = |v: f32| v.max(1e-6).ln();
+    let values: Vec<f32> = form
+        .data()
+        .iter()
+        .zip(relief.data())
+        .map(|(&f, &r)| match class {
+            DecayClass::Mossy => -log(f * r),
+            DecayClass::Rust => -log(r),
+            _ => log(r).abs(),
+        })
+        .collect();
     let inside: Vec<f64> = values.iter().zip(mask.bits()).filter(|(_, &m)| m).map(|(&v, _)| v as f64).collect();
     let n = inside.len().max(1) as f64;
     let mean = inside.iter().sum::<f64>() / n;

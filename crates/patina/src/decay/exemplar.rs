@@ -75,12 +75,7 @@ pub fn from_exemplar(
     let lighting = match &separation {
         Some(sep) => {
             colour = lighting::relight(&colour, sep, Relight::Flat)?;
-            Some(LightingReport {
-                relight: Relight::Flat.name(),
-                exemplar_nonstationarity: crate::metrics::nonstationarity(&rgb),
-                detail_nonstationarity: crate::metrics::nonstationarity(&sep.detail),
-                sigma: sep.sigma,
-            })
+            Some(LightingReport::of(Relight::Flat, &rgb, sep))
         }
         None => None,
     };

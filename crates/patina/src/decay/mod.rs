@@ -153,14 +153,13 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     // highlight is removed from their product as the class's gloss says.
     let form = shading::estimate(photo, &mask, &params.shading);
     let relief = shading::relief(photo, &mask, &form, shading::RELIEF);
-    let form_only = form.clone();
-    let mut lit = form;
+    let mut lit = form.clone();
     lit.data_mut().iter_mut().zip(relief.data()).for_each(|(s, r)| *s *= r);
     let shading = shading::with_gloss(&lit, &mask, params.class.gloss());
     let (degree, draws) = match inputs.degree {
         Some(painting) => (degree::from_painting(painting, &mask)?, 0),
         None => {
-            let affinity = degree::affinity(params.class, &form_only, &relief, &mask);
+            let affinity = degree::affinity(params.class, &form, &relief, &mask);
             degree::initial(&mask, params.area, params.continuity, affinity.as_ref(), seed)?
         }
     };

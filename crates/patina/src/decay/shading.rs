@@ -39,11 +39,7 @@ impl Default for ShadingParams {
 /// the log domain; 1 outside the mask.
 pub fn estimate(photo: &Image, mask: &Mask, params: &ShadingParams) -> Image {
     let (w, h) = mask.size();
-    let log_lum = Image::from_fn(w, h, 1, |x, y, p| {
-        let c = photo.pixel(x, y);
-        let y_lin: f32 = (0..3).map(|k| LUMA[k] * srgb_to_linear(c[k.min(photo.channels() - 1)])).sum();
-        p[0] = y_lin.max(1e-3).ln();
-    });
+    let log_lum = log_luminance(photo);
     let set = mask.bits().iter().enumerate().filter(|(_, &m)| m).map(|(i, _)| i);
     let (bx0, by0, bx1, by1) = pixel_bounds(set, w).unwrap_or((0, 0, w - 1, h - 1));
     let side = (bx1 - bx0).max(by1 - by0) as f32 + 1.0;
@@ -69,6 +65,15 @@ pub fn estimate(photo: &Image, mask: &Mask, params: &ShadingParams) -> Image {
 /// specular highlight ([`with_gloss`]).
 pub const HIGHLIGHT_QUANTILE: f32 = 0.9;
 
+/// The natural log of the photo's linear luminance (at least 1e-3), one channel.
+fn log_luminance(photo: &Image) -> Image {
+    Image::from_fn(photo.width(), photo.height(), 1, |x, y, p| {
+        let c = photo.pixel(x, y);
+        let y_lin: f32 = (0..3).map(|k| LUMA[k] * srgb_to_linear(c[k.min(photo.channels() - 1)])).sum();
+        p[0] = y_lin.max(1e-3).ln();
+    })
+}
+
 /// How much of the photo's fine relief ([`relief`]) shows through the decay.
 pub const RELIEF: f32 = 0.85;
 
@@ -83,12 +88,8 @@ pub const RELIEF: f32 = 0.85;
 /// marks), which then shows faintly through the decay, as stains do
 /// through a thin layer. 1 outside the mask.
 pub fn relief(photo: &Image, mask: &Mask, shading: &Image, strength: f32) -> Image {
-    let (w, h) = mask.size();
-    let residual = Image::from_fn(w, h, 1, |x, y, p| {
-        let c = photo.pixel(x, y);
-        let y_lin: f32 = (0..3).map(|k| LUMA[k] * srgb_to_linear(c[k.min(photo.channels() - 1)])).sum();
-        p[0] = y_lin.max(1e-3).ln() - shading.at(x, y, 0).max(1e-6).ln();
-    });
+    let mut residual = log_luminance(photo);
+    residual.data_mut().iter_mut().zip(shading.data()).for_each(|(v, s)| *v -= s.max(1e-6).ln());
     let inside: Vec<f64> = residual.data().iter().zip(mask.bits()).filter(|(_, &m)| m).map(|(&v, _)| v as f64).collect();
     let mean = (inside.iter().sum::<f64>() / inside.len().max(1) as f64) as f32;
     let mut out = residual;

@@ -58,20 +58,30 @@ pub fn gaussian_blur(img: &Image, sigma: f32) -> Image {
     if sigma <= 0.0 {
         return img.clone();
     }
-    let (w, h) = img.size();
     if sigma > PYRAMID_SIGMA {
-        let f = (sigma / 6.0).floor();
-        let (sw, sh) = ((w as f32 / f).ceil() as usize, (h as f32 / f).ceil() as usize);
-        let inner = (sigma * sigma - f * f / 3.0).sqrt() / f;
-        if sw >= 2 && sh >= 2 {
-            if let Ok(small) = resize(img, sw, sh, Filter::Linear) {
-                if let Ok(out) = resize(&direct_blur(&small, inner), w, h, Filter::Linear) {
-                    return out;
-                }
-            }
+        if let Some(out) = shrunk_blur(img, sigma, (sigma / 6.0).floor()) {
+            return out;
         }
     }
     direct_blur(img, sigma)
+}
+
+/// The Gaussian blur by `sigma` done on a copy shrunk by `f` (see
+/// [`gaussian_blur`]: a triangle prefilter, the remaining sigma
+/// sqrt(sigma^2 - f^2/3) / f, a bilinear stretch back). `None` when the
+/// copy would be under 2 x 2 pixels or `f` is 0.
+pub fn shrunk_blur(img: &Image, sigma: f32, f: f32) -> Option<Image> {
+    let (w, h) = img.size();
+    if f < 1.0 {
+        return None;
+    }
+    let (sw, sh) = ((w as f32 / f).ceil() as usize, (h as f32 / f).ceil() as usize);
+    let inner = (sigma * sigma - f * f / 3.0).sqrt() / f;
+    if sw < 2 || sh < 2 {
+        return None;
+    }
+    let small = resize(img, sw, sh, Filter::Linear).ok()?;
+    resize(&direct_blur(&small, inner), w, h, Filter::Linear).ok()
 }
 
 /// The separable Gaussian, tap by tap.

@@ -60,6 +60,18 @@ pub struct LightingReport {
     pub sigma: f32,
 }
 
+impl LightingReport {
+    /// The report of `exemplar` split as `sep` and re-lit `how`.
+    pub fn of(how: Relight, exemplar: &Image, sep: &Separation) -> Self {
+        LightingReport {
+            relight: how.name(),
+            exemplar_nonstationarity: crate::metrics::nonstationarity(exemplar),
+            detail_nonstationarity: crate::metrics::nonstationarity(&sep.detail),
+            sigma: sep.sigma,
+        }
+    }
+}
+
 /// An exemplar split into detail and illumination.
 pub struct Separation {
     /// The exemplar divided by its illumination (every channel), at the mean brightness.

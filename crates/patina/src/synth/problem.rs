@@ -82,12 +82,7 @@ impl<'a> Synthesis<'a> {
         let groups = img.groups().to_vec();
         *img = relight(img, &sep, self.relight)?;
         img.set_groups(groups)?;
-        *report = Some(LightingReport {
-            relight: self.relight.name(),
-            exemplar_nonstationarity: crate::metrics::nonstationarity(self.source),
-            detail_nonstationarity: crate::metrics::nonstationarity(&sep.detail),
-            sigma: sep.sigma,
-        });
+        *report = Some(LightingReport::of(self.relight, self.source, &sep));
         Ok(result)
     }
     /// Make the output tile: synthesize it on a torus ([`super::torus`]), so
