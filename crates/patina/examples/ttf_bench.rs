@@ -6,7 +6,7 @@
 //!    relative RMS error at rank 15, and the rank that reaches 5% and 2%.
 //! 2. Block search: quilting a 256 x 256 output from a 100-frame sequence,
 //!    comparing blocks on the rank-15 SVD coefficients vs on every frame.
-//! 3. Whole runs with the defaults (SVD, quilting, seam-matched jitter,
+//! 3. Whole runs with the defaults (SVD, quilting, seam-aligned jitter,
 //!    lighting, seam blending, rendering every frame), each input enlarged
 //!    2x (128 -> 256 and 256 -> 512, 100 frames), and 500 frames of 256 x
 //!    256 -> 512 x 512, with peak memory.

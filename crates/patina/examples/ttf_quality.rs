@@ -6,6 +6,9 @@
 //!   input's ([`patina::metrics::grid_peak`]), at the middle and last frame;
 //! - repeats: near-verbatim repeated share of the middle frame;
 //! - flicker: mean frame-to-frame change of the output over the input's;
+//! - seams: how much worse the output's patches are on the cuts between
+//!   blocks than inside them, at the first frame, 10% in and the middle
+//!   (see `cut_lines`; 0 = invisible cuts);
 //! - time and frames.
 //!
 //!     cargo run --release -p patina --example ttf_quality [OUT_DIR]
@@ -16,10 +19,11 @@
 
 use patina::image::io::{save_png, BitDepth};
 use patina::image::sequence::load_sequence;
-use patina::metrics::{flicker, grid_peak, repeated_share};
+use patina::metrics::{flicker, grid_peak, repeated_share, seam_visibility};
 use patina::synth::QuiltParams;
 use patina::ttf::{input_nonstationarity, synthesize, SequenceLighting, TtfParams};
 use patina::Image;
+use patina::Mask;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -64,8 +68,8 @@ fn main() {
         p.quilt.overlap = Some((v[1], v[1]));
         settings.push((format!("b{}o{}", v[0], v[1]), p));
     }
-    println!("| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | lighting | time s |");
-    println!("|---|---|---:|---:|---:|---:|---|---:|");
+    println!("| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | seams first / 10% / mid | lighting | time s |");
+    println!("|---|---|---:|---:|---:|---:|---|---|---:|");
     for (name, frames) in &sequences {
         let (w, h) = frames[0].size();
         let n = frames.len();
@@ -79,11 +83,23 @@ fn main() {
             let secs = start.elapsed().as_secs_f64();
             let o = &out.frames;
             let rep = repeated_share(&o[n / 2], 9, 16, 1).expect("repeats");
+            let (cuts, interior) = cut_lines(&out.plan.labels(), 2 * w, 2 * h);
+            let seams: Vec<String> = [0, n / 10, n / 2]
+                .iter()
+                .map(|&t| {
+                    let near = times_around(frames, t);
+                    let on = seam_visibility(&o[t], &near, &cuts, 7, 1).expect("seams");
+                    let off = seam_visibility(&o[t], &near, &interior, 7, 1).expect("seams");
+                    let own = patina::metrics::self_similarity(&frames[t], 7, 1).expect("self-similarity");
+                    format!("{:.2} {:.2}", (on - off) / own.max(1e-6), tone_steps(&o[t], &cuts, &interior))
+                })
+                .collect();
             println!(
-                "| {name} | {label} | {:.2} | {:.2} | {rep:.3} | {:.2} | {} | {secs:.1} |",
+                "| {name} | {label} | {:.2} | {:.2} | {rep:.3} | {:.2} | {} | {} | {secs:.1} |",
                 grid_peak(&o[n / 2]) / g_mid,
                 grid_peak(&o[n - 1]) / g_last,
                 flicker(o) / f_in,
+                seams.join(" / "),
                 if out.lighting.is_some() { "split" } else { "kept" },
             );
             if let Some(d) = &out_dir {
@@ -92,4 +108,60 @@ fn main() {
             }
         }
     }
+}
+
+/// Tone steps along the cuts: the mean gradient of the 2 px-blurred
+/// luminance on cut pixels over that inside the blocks (1 = no step; fine
+/// texture is blurred away, brightness jumps between blocks are not).
+fn tone_steps(img: &Image, cuts: &Mask, interior: &Mask) -> f64 {
+    let l = patina::image::filter::gaussian_blur(&patina::image::color::luminance(img), 2.0);
+    let (w, h) = l.size();
+    let (mut on, mut non, mut off, mut noff) = (0.0f64, 0usize, 0.0f64, 0usize);
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let g = f64::from((l.at(x + 1, y, 0) - l.at(x - 1, y, 0)).hypot(l.at(x, y + 1, 0) - l.at(x, y - 1, 0)));
+            if cuts.get(x, y) {
+                on += g;
+                non += 1;
+            } else if interior.get(x, y) {
+                off += g;
+                noff += 1;
+            }
+        }
+    }
+    (on / non.max(1) as f64) / (off / noff.max(1) as f64).max(1e-12)
+}
+
+/// The input frames within 8 of `t` (every 4th), side by side: what a
+/// jittered output frame may show.
+fn times_around(frames: &[Image], t: usize) -> Image {
+    let picked: Vec<&Image> = (t.saturating_sub(8)..(t + 9).min(frames.len())).step_by(4).map(|u| &frames[u]).collect();
+    let (w, h, c) = (frames[0].width(), frames[0].height(), frames[0].channels());
+    let mut out = Image::new(w * picked.len(), h, c);
+    for (k, f) in picked.iter().enumerate() {
+        for y in 0..h {
+            for x in 0..w {
+                out.pixel_mut(k * w + x, y).copy_from_slice(f.pixel(x, y));
+            }
+        }
+    }
+    out
+}
+
+/// The output pixels on a cut between two blocks (a pixel whose right or
+/// lower neighbour came from another block) and those at least 4 px from
+/// any cut: the seam measure is the coherence on cuts minus that inside the
+/// blocks (against the input frames within 8 of the output's), over the
+/// input frame's self-similarity (0 = a seam as good as the blocks' insides).
+fn cut_lines(labels: &[u32], w: usize, h: usize) -> (Mask, Mask) {
+    let on = |x: usize, y: usize| {
+        let l = labels[y * w + x];
+        (x + 1 < w && labels[y * w + x + 1] != l) || (y + 1 < h && labels[(y + 1) * w + x] != l)
+    };
+    let cuts = Mask::from_fn(w, h, on);
+    let near = |x: usize, y: usize| {
+        (y.saturating_sub(4)..(y + 5).min(h)).any(|yy| (x.saturating_sub(4)..(x + 5).min(w)).any(|xx| cuts.get(xx, yy)))
+    };
+    let interior = Mask::from_fn(w, h, |x, y| !near(x, y));
+    (cuts, interior)
 }

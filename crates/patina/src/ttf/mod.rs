@@ -13,16 +13,17 @@
 //!   the top-k SVD coefficients of each pixel's time series, weighted by the
 //!   singular values; `rank = 0` compares all frames instead.
 //! - Elongated blocks (section 5.3): any block width and height.
-//! - Time jitter (eqs. 6-7, [`warp`]), each block's warp chosen among
-//!   several to match its neighbours at the seams, and rate maps (section
-//!   6, [`rate`]).
+//! - Time jitter (eqs. 6-7, [`warp`]), each block's warp chosen frame by
+//!   frame to stay in step with its neighbours wherever a change crosses
+//!   its seam, and rate maps (section 6, [`rate`]).
 //! - Low-frequency normalisation (section 5.3) by the engine's
 //!   lighting-aware synthesis ([`crate::synth::lighting`]): the frames are
 //!   divided by the illumination of their temporal mean, the detail is
 //!   quilted, and the output is re-lit (flat by default). Automatic when
 //!   the input's large-scale variation is high.
-//! - Seams hidden per frame in the gradient domain ([`crate::synth::blend`]),
-//!   frame by frame from the same cut, so no seam flickers.
+//! - Seams hidden in the gradient domain ([`crate::synth::blend`]) at key
+//!   frames spaced by the input's pace, interpolated between, so no seam
+//!   flickers.
 
 pub mod rate;
 pub mod svd;
@@ -272,7 +273,7 @@ pub fn synthesize_chunk(
         .quilt(&quilt)?;
     drop(features);
     let plan = quilted.plan;
-    let warps = warp::seam_matched(&plan, frames, params.jitter_frames(n), &pace(frames), rng::derive(seed, &[2]));
+    let warps = warp::seam_aligned(&plan, frames, params.jitter_frames(n), &pace(frames), rng::derive(seed, &[2]));
     let render = |t: usize| {
         plan.render_with(frames[0].channels(), |i, (sx, sy), (ox, oy), px| {
             // A jittered time between two frames is rounded to the nearer:
@@ -286,18 +287,26 @@ pub fn synthesize_chunk(
             sample(frames, sx, sy, tau, px);
         })
     };
-    // Seams are hidden in the gradient domain at key frames every
-    // KEY_STEP frames, each solved on the mean of the frames within a step
-    // of it (the blend is linear in the composite and the source, so this
-    // is the mean of their corrections) against the input frames of the
-    // same times, and every frame adds the correction interpolated between
-    // its two keys. Blending each frame on its own lets a spot growing
-    // across a seam send a glow around it that changes every frame (on a
-    // vignetted rust sequence, 1.7-2.0x the input's frame-to-frame change,
-    // against 1.2-1.3x unblended). Simplification: a jittered or
-    // rate-warped block is continued across its seam with that frame's
-    // gradients, not its own warped time's; these differ only slightly,
-    // and the brightness steps are what the blend removes.
+    // Seams are hidden in the gradient domain at key frames, each solved
+    // on the mean of the frames around it (the blend is linear in the
+    // composite and the source, so this is the mean of their corrections)
+    // against the input frames of the same times, and every frame adds the
+    // correction interpolated between its two keys. Blending each frame on
+    // its own lets a spot growing across a seam send a glow around it that
+    // changes every frame (on a vignetted rust sequence, 1.7-2.0x the
+    // input's frame-to-frame change, against 1.2-1.3x unblended). Keys are
+    // KEY_STEP frames apart. The first key is solved on frame 0 alone: its
+    // one-sided window gave frame 0 the seams of frames 0-8, a jigsaw of
+    // tone steps on copper_patinating and rusting_steel, whose first frames
+    // change fast (tone steps along the cuts 1.5x the blocks' insides,
+    // now 0.9-0.95x). Tried and not kept: keys spaced by the input's pace
+    // (no visible gain once blocks keep in step, more flicker on the
+    // vignetted test), and the last key on its own frame too (1.6-1.78x
+    // the input's frame-to-frame change there, against 1.4-1.6x).
+    // Simplification: a jittered or rate-warped block
+    // is continued across its seam with that frame's gradients, not its
+    // own warped time's; these differ only slightly, and the brightness
+    // steps are what the blend removes.
     let corrections: Vec<(usize, Vec<f32>)> = if params.quilt.blend && params.quilt.boundary_cut && !params.tile {
         let positions = plan.source_positions();
         let mut keys: Vec<usize> = (0..out_frames).step_by(KEY_STEP).collect();
@@ -311,7 +320,8 @@ pub fn synthesize_chunk(
             .to_vec()
             .into_par_iter()
             .map(|t| {
-                let window = t.saturating_sub(KEY_STEP)..(t + KEY_STEP + 1).min(out_frames);
+                // The first key's own frame only (see above).
+                let window = if t == 0 { 0..1 } else { t.saturating_sub(KEY_STEP)..(t + KEY_STEP + 1).min(out_frames) };
                 let k = 1.0 / window.len() as f32;
                 let mut mean = Image::new(width, height, frames[0].channels());
                 let mut src = Image::new(frames[0].width(), frames[0].height(), frames[0].channels());
