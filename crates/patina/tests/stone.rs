@@ -133,7 +133,7 @@ fn carvings_wear_away_while_the_grain_stays_and_no_lattice_appears() {
     // wears (the patches there are at w < 0.7 by t = 200) but the
     // grooves put nothing into the band: the grain alone is the truth.
     let between: Vec<usize> = busy.iter().copied().filter(|&i| depth(&lines, (i % W) as f32, (i / W) as f32) < 0.02).collect();
-    let weights = prep.borrowing.weights(&prep.mask, (params.k, 200.0));
+    let weights = prep.borrowing.weights(&prep.mask, (params.k, 200.0), &stone::update::chips(W, H, 1));
     let mean_w = between.iter().map(|&i| weights.data()[i]).sum::<f32>() / between.len() as f32;
     assert!(between.len() > 300 && mean_w < 0.7, "{} px between the grooves at w = {mean_w}", between.len());
     let truth = band_energy(&grain_only(), &between, 0.0, 1.0);

@@ -11,7 +11,6 @@
 pub mod composite;
 pub mod degree;
 pub mod exemplar;
-pub mod noise;
 pub mod shading;
 pub mod texture;
 

@@ -14,7 +14,7 @@
 //! a time.
 
 use super::composite::Transition;
-use super::noise::{mix3, ramp, smoothstep, Layer};
+use crate::image::noise::{mix3, ramp, smoothstep, Layer};
 use crate::image::Image;
 use crate::{Error, Result};
 use rayon::prelude::*;

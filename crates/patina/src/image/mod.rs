@@ -11,6 +11,7 @@ pub mod budget;
 pub mod color;
 pub mod filter;
 pub mod io;
+pub mod noise;
 pub mod resample;
 pub mod sequence;
 pub mod summed;

@@ -271,11 +271,12 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let erode = p.erosion && prep.masked && prep.mask.count() < w * h;
     let mut erosion = Erosion::new(&prep.linear, &prep.mask, p.bleed, seed);
     let object_pixels = prep.mask.count();
+    let chips = update::chips(w, h, seed);
     let fade: Option<Vec<f32>> = (p.feather > 0.0).then(|| prep.mask.distance_inside().iter().map(|d| (d / p.feather).min(1.0)).collect());
     let mut done = 0;
     let mut frames = Vec::with_capacity(times.len());
     for (i, &t) in times.iter().enumerate() {
-        let weights = prep.borrowing.weights(&prep.mask, (p.k, t));
+        let weights = prep.borrowing.weights(&prep.mask, (p.k, t), &chips);
         let smoothed =
             update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.tight), &prep.borrowing).map(|v| v.max(0.0).powf(GAMMA));
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };

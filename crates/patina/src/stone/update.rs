@@ -139,22 +139,64 @@ impl Borrowing {
         Borrowing { offset, gain: grain_gains(fine, sources, patches, offsets, scale), local_tendency, scale }
     }
 
-    /// Per-pixel weights of eq. (2), w = exp(-k d_p t), 1 off `object`.
+    /// Per-pixel weights of eq. (2), w = exp(-k d_p t), chipped by
+    /// `chips` ([`chips`]), 1 off `object`.
     ///
-    /// Departure: the paper's d_p is the mean tendency of the patch p0 the
-    /// pixel belongs to. Where the tendency is even (granite, a lettered
-    /// slab), the segmentation's oversized regions are bisected into
-    /// rectangles, and per-patch weights wore them to different depths: a
-    /// visible lattice of blocks. Here d_p is the tendency's mean over a
-    /// Gaussian of half the patch size around the pixel (normalized over
-    /// the object): the same local average, without patch outlines. The
-    /// map is then softened by [`WEIGHT_SIGMA`] at the object's edge.
-    pub fn weights(&self, object: &Mask, (k, t): (f32, f32)) -> Image {
+    /// Departures:
+    /// - The paper's d_p is the mean tendency of the patch p0 the pixel
+    ///   belongs to. Where the tendency is even (granite, a lettered slab),
+    ///   the segmentation's oversized regions are bisected into rectangles,
+    ///   and per-patch weights wore them to different depths: a visible
+    ///   lattice of blocks. Here d_p is the tendency's mean over a Gaussian
+    ///   of half the patch size around the pixel (normalized over the
+    ///   object): the same local average, without patch outlines.
+    /// - Stone does not wear evenly: grains and flakes come away in pieces,
+    ///   so a worn edge is broken, not defocused. A smooth w faded every
+    ///   carved edge by the same share and read as blur (on a granite
+    ///   slab, raised letters turned into soft dark ghosts). Here w is a
+    ///   share of area instead: a pixel is worn (weight 0) where the chip
+    ///   field u(x), uniform on [0, 1], exceeds w, kept (1) where it is
+    ///   below, with a ramp of [`CHIP_SOFTNESS`] between; so the worn share
+    ///   of any neighbourhood is still 1 - w on average, and what is left
+    ///   keeps its sharp edges. The map is then softened by
+    ///   [`WEIGHT_SIGMA`].
+    pub fn weights(&self, object: &Mask, (k, t): (f32, f32), chips: &Image) -> Image {
         let (w, h) = object.size();
-        let map =
-            Image::from_fn(w, h, 1, |x, y, p| p[0] = if object.get(x, y) { (-k * self.local_tendency.at(x, y, 0) * t).exp() } else { 1.0 });
-        crate::image::filter::gaussian_blur(&map, WEIGHT_SIGMA)
+        let map = Image::from_fn(w, h, 1, |x, y, p| {
+            p[0] = if object.get(x, y) {
+                let wt = (-k * self.local_tendency.at(x, y, 0) * t).exp();
+                ((wt - chips.at(x, y, 0)) / CHIP_SOFTNESS + 0.5).clamp(0.0, 1.0)
+            } else {
+                1.0
+            }
+        });
+        // Snap the blur's rounding back to 1: sqrt(1 - w^2) would turn a
+        // 1e-7 shortfall into a 5e-4 share of borrowed texture.
+        crate::image::filter::gaussian_blur(&map, WEIGHT_SIGMA).map(|v| if v > 1.0 - 1e-5 { 1.0 } else { v })
     }
+}
+
+/// Width of the ramp between kept and worn stone, in units of w.
+pub const CHIP_SOFTNESS: f32 = 0.2;
+/// Wavelength (px) of the largest chips.
+pub const CHIP_SCALE: f32 = 12.0;
+
+/// The chip field of [`Borrowing::weights`]: fractal (fBm) noise of
+/// wavelength [`CHIP_SCALE`] px and three finer octaves, made uniform by
+/// rank on [s/2, 1 - s/2] (s = [`CHIP_SOFTNESS`]), so that a threshold at
+/// w wears about 1 - w of the pixels, none at w = 1 and all at w = 0.
+/// Ties are broken by index, so the field is the same at any thread count.
+pub fn chips(w: usize, h: usize, seed: u64) -> Image {
+    let layer = crate::image::noise::Layer::new(seed ^ 0x57_0e, 3);
+    let raw = Image::from_fn(w, h, 1, |x, y, p| p[0] = layer.fbm(x as f32, y as f32, CHIP_SCALE, 4, 0.6));
+    let mut order: Vec<usize> = (0..w * h).collect();
+    order.par_sort_unstable_by(|&a, &b| raw.data()[a].total_cmp(&raw.data()[b]).then(a.cmp(&b)));
+    let mut field = Image::new(w, h, 1);
+    let n = order.len() as f32;
+    for (rank, &i) in order.iter().enumerate() {
+        field.data_mut()[i] = 0.5 * CHIP_SOFTNESS + (1.0 - CHIP_SOFTNESS) * (rank as f32 + 0.5) / n;
+    }
+    field
 }
 
 /// The mean of `values` over a Gaussian of `sigma` around each pixel,
@@ -171,15 +213,16 @@ fn local_mean(values: &Image, inside: &Image, sigma: f32, fallback: f32) -> Imag
 pub const WEIGHT_SIGMA: f32 = 2.0;
 
 /// Eq. (2) and the Poisson solve for the photo split as `(base, fine)`
-/// (relief, and its finest band: grain and the sharpest carved edges):
-/// every object gradient of the relief becomes the blend
-/// grad B_t(x) = w grad B_0(x) + (1 - w) grad B_0(x + c1 - c0)
-/// of its own and its patch's match (eq. 1's offset; where the shifted edge
-/// is off `sources`, the object proper without its rim, its own is kept),
-/// on every edge inside `object`, the finest band becomes
-/// grad F_t(x) = w grad F_0(x) + sqrt(1 - w^2) grad F_0(x + c1 - c0),
-/// and the image is integrated from their sum. Returns base + fine,
-/// weathered.
+/// (relief, and its finest band: grain and the sharpest carved edges),
+/// with the weights w of [`Borrowing::weights`]: every object gradient of
+/// the relief becomes the blend
+/// grad B_t(x) = w grad B_0(x) + sqrt(1 - w^2) grad B_0(x + c1 - c0)
+/// of its own and its patch's match (eq. 1's offset; where the shifted
+/// pixels are off `sources`, the object proper without its rim, its own is
+/// kept) on every edge inside `object`, and the relief is integrated from
+/// it; the finest band is blended the same way pixel by pixel,
+/// F_t(x) = w F_0(x) + sqrt(1 - w^2) g F_0(x + c1 - c0), with the gain g
+/// of [`grain_gains`]. Returns B_t + F_t.
 ///
 /// Departures from the paper, as issue 19 allows:
 /// - The paper re-solves each patch on its own with its border fixed to
@@ -189,13 +232,18 @@ pub const WEIGHT_SIGMA: f32 = 2.0;
 ///   ([`poisson::integrate`]): the blended gradients are followed at scales
 ///   up to the patch size `scale` (lambda = 1 / scale^2), and larger scales
 ///   (the object's form and lighting) stay anchored to I_0.
-/// - The finest band is blended with energy-preserving weights. The grain
-///   of p0 and of its calm match p1 are uncorrelated, so eq. (2)'s plain
-///   blend loses up to half the grain and reads as blur; with w and
-///   sqrt(1 - w^2) the grain keeps its energy, now borrowed from calm
-///   stone (brought to the strength of p0's own grain, [`grain_gains`]),
-///   while a carved edge (in p0 only) still fades as w. Relief fades as
-///   eq. (2) says.
+/// - Eq. (2) blends with w and 1 - w. The stone texture of p0 and of its
+///   calm match p1 is uncorrelated, so that blend loses up to half of its
+///   energy and reads as blur: pecked sandstone wore as smooth as concrete
+///   and granite lost its speckle. With w and sqrt(1 - w^2) the texture
+///   keeps its energy, now borrowed from calm stone, while a carved edge
+///   (in p0 only) still fades as w. The form below the patch scale is
+///   in both and could gain up to sqrt 2 where 0 < w < 1, but the chipped
+///   weights are 0 or 1 almost everywhere.
+/// - The finest band is not integrated: a least-squares solve of borrowed
+///   grain from many patches smeared it into swirls. Composited per pixel,
+///   it stays crisp; the grain of neighbouring patches is uncorrelated
+///   noise either way, so no outline shows where the offset changes.
 ///
 /// w = 1 (t = 0) reproduces the input exactly.
 pub fn update((base, fine): (&Image, &Image), weights: &Image, (object, sources): (&Mask, &Mask), borrowing: &Borrowing) -> Image {
@@ -222,12 +270,10 @@ pub fn update((base, fine): (&Image, &Image), weights: &Image, (object, sources)
                         continue;
                     }
                     let (sx, sy, tx, ty) = (sx as usize, sy as usize, tx as usize, ty as usize);
-                    let own = (base.at(qx, qy, ch) - base.at(x, y, ch), fine.at(qx, qy, ch) - fine.at(x, y, ch));
-                    let borrowed = (base.at(tx, ty, ch) - base.at(sx, sy, ch), fine.at(tx, ty, ch) - fine.at(sx, sy, ch));
+                    let own = base.at(qx, qy, ch) - base.at(x, y, ch);
+                    let borrowed = base.at(tx, ty, ch) - base.at(sx, sy, ch);
                     let wt = 0.5 * (weights.at(x, y, 0) + weights.at(qx, qy, 0));
-                    let keep = (1.0 - wt * wt).max(0.0).sqrt();
-                    let g = 0.5 * (gain.at(x, y, 0) + gain.at(qx, qy, 0));
-                    *out = (1.0 - wt) * (borrowed.0 - own.0) + (wt - 1.0) * own.1 + keep * g * borrowed.1;
+                    *out = (wt - 1.0) * own + (1.0 - wt * wt).max(0.0).sqrt() * borrowed;
                 }
             });
             m
@@ -237,6 +283,25 @@ pub fn update((base, fine): (&Image, &Image), weights: &Image, (object, sources)
             *v += dv;
         }
     }
+    // The grain, composited pixel by pixel (no solve to smear it).
+    out.data_mut().par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+        for x in 0..w {
+            if !object.get(x, y) {
+                continue;
+            }
+            let (dx, dy) = offset[y * w + x];
+            let (sx, sy) = (x as isize + dx, y as isize + dy);
+            let wt = weights.at(x, y, 0);
+            let px = &mut row[x * c..(x + 1) * c];
+            if !inside(sx, sy) {
+                continue;
+            }
+            let keep = (1.0 - wt * wt).max(0.0).sqrt() * gain.at(x, y, 0);
+            for (ch, o) in px.iter_mut().enumerate() {
+                *o += (wt - 1.0) * fine.at(x, y, ch) + keep * fine.at(sx as usize, sy as usize, ch);
+            }
+        }
+    });
     out
 }
 
@@ -317,9 +382,44 @@ mod tests {
         // t = 0 gives w = 1 for every patch.
         let zero = img.map(|_| 0.0);
         let borrowing = Borrowing::new(&d, &zero, (&mask, &mask), (&patches, &offsets), 12.0);
-        let out = update((&img, &zero), &borrowing.weights(&mask, (0.01, 0.0)), (&mask, &mask), &borrowing);
+        let out = update((&img, &zero), &borrowing.weights(&mask, (0.01, 0.0), &chips(96, 64, 1)), (&mask, &mask), &borrowing);
         let err = img.data().iter().zip(out.data()).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
         assert!(err <= 1e-5, "max error {err}");
+    }
+
+    /// Half-worn carving (mean weight 1/2) is worn in pieces: what is left
+    /// keeps its full relief and the rest is gone, instead of every bump
+    /// fading to half (which reads as a defocused photo).
+    #[test]
+    fn carving_wears_away_in_pieces_not_as_an_even_fade() {
+        let (img, d, mask, patches, offsets) = relief();
+        let zero = img.map(|_| 0.0);
+        let borrowing = Borrowing::new(&d, &zero, (&mask, &mask), (&patches, &offsets), 12.0);
+        // d = 1 on the right half: w = exp(-0.01 t) = 1/2.
+        let t = 2f32.ln() / 0.01;
+        let out = update((&img, &zero), &borrowing.weights(&mask, (0.01, t), &chips(96, 64, 5)), (&mask, &mask), &borrowing);
+        // The bumps' share left in each 4 x 4 block of the carved half,
+        // by regression of the worn image's detail on the input's.
+        let detail = |im: &Image| {
+            let s = gaussian_blur(im, 4.0);
+            Image::from_fn(96, 64, 1, |x, y, p| p[0] = im.at(x, y, 0) - s.at(x, y, 0))
+        };
+        let (a, b) = (detail(&img), detail(&out));
+        let mut left = Vec::new();
+        for by in (8..56).step_by(4) {
+            for bx in (60..92).step_by(4) {
+                let (mut cov, mut var) = (0f32, 0f32);
+                for (x, y) in (by..by + 4).flat_map(|y| (bx..bx + 4).map(move |x| (x, y))) {
+                    cov += a.at(x, y, 0) * b.at(x, y, 0);
+                    var += a.at(x, y, 0).powi(2);
+                }
+                left.push(cov / var.max(1e-9));
+            }
+        }
+        let share = |f: &dyn Fn(f32) -> bool| left.iter().filter(|&&v| f(v)).count() as f32 / left.len() as f32;
+        let (kept, gone, half) = (share(&|v| v > 0.75), share(&|v| v < 0.25), share(&|v| (0.35..0.65).contains(&v)));
+        assert!(kept > 0.2 && gone > 0.2, "kept {kept:.2}, gone {gone:.2} of {} blocks", left.len());
+        assert!(half < 0.4, "{half:.2} of the blocks faded to about half");
     }
 
     #[test]
@@ -327,7 +427,7 @@ mod tests {
         let (img, d, mask, patches, offsets) = relief();
         let zero = img.map(|_| 0.0);
         let borrowing = Borrowing::new(&d, &zero, (&mask, &mask), (&patches, &offsets), 12.0);
-        let out = update((&img, &zero), &borrowing.weights(&mask, (0.01, 400.0)), (&mask, &mask), &borrowing);
+        let out = update((&img, &zero), &borrowing.weights(&mask, (0.01, 400.0), &chips(96, 64, 1)), (&mask, &mask), &borrowing);
         let band = |im: &Image, x0: usize| {
             let smooth = gaussian_blur(im, 3.0);
             (8..56)

@@ -1,5 +1,6 @@
-//! Coordinate noise for the procedural decay textures: gradient (Perlin)
-//! noise, fractal sums of it, domain warping and cellular (Worley) noise.
+//! Coordinate noise: gradient (Perlin) noise, fractal sums of it, domain
+//! warping and cellular (Worley) noise. Decay's procedural textures and
+//! degree maps and stone's chipped wear use it.
 //!
 //! Every function here is a pure function of a seed and absolute pixel
 //! coordinates, with no image-level state, so a texture generated in parts
