@@ -120,9 +120,10 @@ pub struct Prepared {
     pub original: Image,
     /// The object: the given mask dilated by `params.mask_dilation`.
     pub mask: Mask,
-    /// The object proper, the given mask: the only pixels weathered stone
-    /// is borrowed from (the rim is part stone, part background).
-    pub tight: Mask,
+    /// The only pixels weathered stone is borrowed from: the object proper
+    /// (the given mask; the rim is part stone, part background) less a band
+    /// along its outline ([`sources`]).
+    pub sources: Mask,
     /// Whether the mask came from the user (or alpha); erosion needs one.
     pub masked: bool,
     pub tendency: Image,
@@ -197,7 +198,9 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
     let seg = SegmentParams { k: params.seg_k, n: params.n, max_factor: params.max_patch };
     let patches = segment::segment(&tendency, &mask, &seg);
     let intensity = luminance(&linear);
-    let maps = SearchMaps { intensity: &intensity, tendency: &tendency, mask: &tight };
+    let scale = (mask.count() as f32 / patches.len().max(1) as f32).sqrt();
+    let sources = sources(&tight, scale);
+    let maps = SearchMaps { intensity: &intensity, tendency: &tendency, mask: &sources };
     let offsets = update::best_offsets(&patches, &maps, &MatchParams { wd: params.wd, ..Default::default() });
     let sample = match rough_sample {
         Some(s) => luminance(&s.map(|v| v.max(0.0).powf(GAMMA))),
@@ -219,13 +222,12 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
     let grain = Image::from_fn(w, h, 3, |x, y, p| {
         p.iter_mut().zip(rgb.pixel(x, y).iter().zip(base.pixel(x, y))).for_each(|(o, (l, b))| *o = l - b)
     });
-    let scale = (mask.count() as f32 / patches.len().max(1) as f32).sqrt();
-    let borrowing = update::Borrowing::new(&tendency, &grain, (&mask, &tight), (&patches, &offsets), scale);
+    let borrowing = update::Borrowing::new(&tendency, &grain, (&mask, &sources), (&patches, &offsets), scale);
     Ok(Prepared {
         linear,
         original: rgb,
         mask,
-        tight,
+        sources,
         masked,
         tendency,
         patches,
@@ -238,6 +240,27 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         params: params.clone(),
     })
 }
+
+/// Where weathered stone is borrowed from: the object proper without a
+/// band of one patch scale along its outline (at most [`MAX_SOURCE_MARGIN`]
+/// px), or the whole object proper if that leaves under a quarter of it.
+///
+/// Not in the paper. The outline band is where an object turns away: a
+/// bevel, a sawn foot, a side face, with its own texture. Calm (so chosen
+/// by eq. 1) and borrowed by every patch, the sawn foot of a granite slab
+/// put its horizontal saw marks all over the face.
+fn sources(tight: &Mask, scale: f32) -> Mask {
+    let margin = (scale.round() as usize).clamp(2, MAX_SOURCE_MARGIN);
+    let inner = tight.erode(margin);
+    if inner.count() * 4 >= tight.count() {
+        inner
+    } else {
+        tight.clone()
+    }
+}
+
+/// Widest band (px) along the outline that is never borrowed from.
+pub const MAX_SOURCE_MARGIN: usize = 24;
 
 fn check_params(p: &StoneParams) -> Result<()> {
     let positive = [("eta", p.eta), ("m", p.m), ("K", p.seg_k), ("n", p.n), ("max patch", p.max_patch)];
@@ -278,7 +301,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     for (i, &t) in times.iter().enumerate() {
         let weights = prep.borrowing.weights(&prep.mask, (p.k, t), &chips);
         let smoothed =
-            update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.tight), &prep.borrowing).map(|v| v.max(0.0).powf(GAMMA));
+            update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.sources), &prep.borrowing).map(|v| v.max(0.0).powf(GAMMA));
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
         let rough = if p.pits { pits::pit(&rough, &prep.tendency, p.k, t, seed) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
@@ -384,4 +407,23 @@ pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask, scale: f32
         }
     }
     (out, strength)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stone_is_not_borrowed_from_the_band_along_the_outline_unless_the_object_is_small() {
+        // A 200 x 100 slab at a patch scale of 12: the 12 px band along its
+        // outline is never a source.
+        let slab = Mask::from_fn(240, 140, |x, y| (20..220).contains(&x) && (20..120).contains(&y));
+        let inner = sources(&slab, 12.0);
+        assert!(inner.get(40, 40) && inner.get(120, 70), "the face is a source");
+        assert!(!inner.get(25, 70) && !inner.get(120, 115) && !inner.get(215, 30), "the outline band is not");
+        assert!((inner.count() as f32 - 176.0 * 76.0).abs() < 0.05 * 176.0 * 76.0, "{} source pixels", inner.count());
+        // A thin strip would lose more than three quarters: it keeps its own.
+        let strip = Mask::from_fn(240, 140, |x, y| (20..220).contains(&x) && (60..80).contains(&y));
+        assert_eq!(sources(&strip, 12.0).count(), strip.count());
+    }
 }
