@@ -171,6 +171,24 @@ pub fn orientation(img: &Image, sigma: f32, only: Option<&Mask>) -> Orientation 
     Orientation { across, coherence }
 }
 
+/// Ranks of a one-channel image's values mapped to [0, 1] (ties share the
+/// lowest rank): its histogram-equalised version.
+pub fn equalize(img: &Image) -> Image {
+    let v = img.data();
+    let mut order: Vec<usize> = (0..v.len()).collect();
+    order.sort_by(|&a, &b| v[a].total_cmp(&v[b]).then(a.cmp(&b)));
+    let mut out = vec![0.0f32; v.len()];
+    let scale = 1.0 / (v.len().max(2) - 1) as f32;
+    let mut rank = 0;
+    for (i, &idx) in order.iter().enumerate() {
+        if i > 0 && v[idx] != v[order[i - 1]] {
+            rank = i;
+        }
+        out[idx] = rank as f32 * scale;
+    }
+    Image::from_data(img.width(), img.height(), 1, out).expect("same size")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -236,5 +254,11 @@ mod tests {
         let d = g.direction.at(8, 8, 0);
         assert!((d - (2.0f32).atan2(1.0)).abs() < 1e-4, "direction {d}");
         assert!((g.magnitude.at(8, 8, 0) - (0.01f32.hypot(0.02))).abs() < 1e-5);
+    }
+
+    #[test]
+    fn equalization_spreads_values_evenly() {
+        let img = Image::from_fn(4, 1, 1, |x, _, p| p[0] = [0.1, 0.9, 0.5, 0.11][x]);
+        assert_eq!(equalize(&img).data(), &[0.0, 1.0, 2.0 / 3.0, 1.0 / 3.0]);
     }
 }

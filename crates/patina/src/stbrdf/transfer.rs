@@ -50,6 +50,7 @@ use super::material::Material;
 use super::poly::{evaluate, Fitter};
 use crate::error::{Error, Result};
 use crate::image::color::luminance;
+use crate::image::filter::equalize;
 use crate::image::Image;
 use crate::synth::{OptimizeParams, Progress};
 use rayon::prelude::*;
@@ -78,24 +79,6 @@ const GROW_DEGREE: usize = 6;
 /// Limits of the target's shading (luminance over its median) that
 /// [`Mode::Grow`] lights the arriving material with.
 const SHADING_RANGE: (f32, f32) = (0.2, 2.0);
-
-/// Ranks of a one-channel image's values mapped to [0, 1] (ties share the
-/// lowest rank): its histogram-equalised version.
-pub fn equalize(img: &Image) -> Image {
-    let v = img.data();
-    let mut order: Vec<usize> = (0..v.len()).collect();
-    order.sort_by(|&a, &b| v[a].total_cmp(&v[b]).then(a.cmp(&b)));
-    let mut out = vec![0.0f32; v.len()];
-    let scale = 1.0 / (v.len().max(2) - 1) as f32;
-    let mut rank = 0;
-    for (i, &idx) in order.iter().enumerate() {
-        if i > 0 && v[idx] != v[order[i - 1]] {
-            rank = i;
-        }
-        out[idx] = rank as f32 * scale;
-    }
-    Image::from_data(img.width(), img.height(), 1, out).expect("same size")
-}
 
 /// How the target's albedo is tied to the material's at t0 (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -403,11 +386,5 @@ mod tests {
         let offset = transfer(&wood, &target, None, &TransferParams { mode: Mode::Offset, ..params }, 3, None).unwrap().material;
         let at = offset.evaluate(t0);
         assert!(at.data().chunks_exact(7).zip(target.data().chunks_exact(3)).all(|(a, b)| (0..3).all(|c| (a[c] - b[c]).abs() < 1e-5)));
-    }
-
-    #[test]
-    fn equalization_spreads_values_evenly() {
-        let img = Image::from_fn(4, 1, 1, |x, _, p| p[0] = [0.1, 0.9, 0.5, 0.11][x]);
-        assert_eq!(equalize(&img).data(), &[0.0, 1.0, 2.0 / 3.0, 1.0 / 3.0]);
     }
 }

@@ -5,6 +5,7 @@
 
 use super::segment::Patch;
 use super::{bounds, set_pixels};
+use crate::image::filter::equalize;
 use crate::image::{Image, Mask};
 use crate::synth::poisson;
 use rayon::prelude::*;
@@ -155,11 +156,10 @@ impl Borrowing {
     ///   carved edge by the same share and read as blur (on a granite
     ///   slab, raised letters turned into soft dark ghosts). Here w is a
     ///   share of area instead: a pixel is worn (weight 0) where the chip
-    ///   field u(x), uniform on [0, 1], exceeds w, kept (1) where it is
-    ///   below, with a ramp of [`CHIP_SOFTNESS`] between; so the worn share
-    ///   of any neighbourhood is still 1 - w on average, and what is left
-    ///   keeps its sharp edges. The map is then softened by
-    ///   [`WEIGHT_SIGMA`].
+    ///   field u(x) ([`chips`], uniform) exceeds w, kept (1) where it is
+    ///   below, with a ramp of [`CHIP_SOFTNESS`] between; so about 1 - w
+    ///   of any neighbourhood is worn, and what is left keeps its sharp
+    ///   edges. The map is then softened by [`WEIGHT_SIGMA`].
     pub fn weights(&self, object: &Mask, (k, t): (f32, f32), chips: &Image) -> Image {
         let (w, h) = object.size();
         let map = Image::from_fn(w, h, 1, |x, y, p| {
@@ -183,20 +183,13 @@ pub const CHIP_SCALE: f32 = 8.0;
 
 /// The chip field of [`Borrowing::weights`]: fractal (fBm) noise of
 /// wavelength [`CHIP_SCALE`] px and three finer octaves, made uniform by
-/// rank on [s/2, 1 - s/2] (s = [`CHIP_SOFTNESS`]), so that a threshold at
-/// w wears about 1 - w of the pixels, none at w = 1 and all at w = 0.
-/// Ties are broken by index, so the field is the same at any thread count.
+/// rank ([`equalize`]) and mapped to [s/2, 1 - s/2] (s = [`CHIP_SOFTNESS`]),
+/// so that a threshold at w wears about 1 - w of the pixels, none at w = 1
+/// and all at w = 0.
 pub fn chips(w: usize, h: usize, seed: u64) -> Image {
     let layer = crate::image::noise::Layer::new(seed ^ 0x57_0e, 3);
     let raw = Image::from_fn(w, h, 1, |x, y, p| p[0] = layer.fbm(x as f32, y as f32, CHIP_SCALE, 4, 0.6));
-    let mut order: Vec<usize> = (0..w * h).collect();
-    order.par_sort_unstable_by(|&a, &b| raw.data()[a].total_cmp(&raw.data()[b]).then(a.cmp(&b)));
-    let mut field = Image::new(w, h, 1);
-    let n = order.len() as f32;
-    for (rank, &i) in order.iter().enumerate() {
-        field.data_mut()[i] = 0.5 * CHIP_SOFTNESS + (1.0 - CHIP_SOFTNESS) * (rank as f32 + 0.5) / n;
-    }
-    field
+    equalize(&raw).map(|u| 0.5 * CHIP_SOFTNESS + (1.0 - CHIP_SOFTNESS) * u)
 }
 
 /// The mean of `values` over a Gaussian of `sigma` around each pixel,
@@ -273,7 +266,7 @@ pub fn update((base, fine): (&Image, &Image), weights: &Image, (object, sources)
                     let own = base.at(qx, qy, ch) - base.at(x, y, ch);
                     let borrowed = base.at(tx, ty, ch) - base.at(sx, sy, ch);
                     let wt = 0.5 * (weights.at(x, y, 0) + weights.at(qx, qy, 0));
-                    *out = (wt - 1.0) * own + (1.0 - wt * wt).max(0.0).sqrt() * borrowed;
+                    *out = (wt - 1.0) * own + borrowed_share(wt) * borrowed;
                 }
             });
             m
@@ -291,18 +284,24 @@ pub fn update((base, fine): (&Image, &Image), weights: &Image, (object, sources)
             }
             let (dx, dy) = offset[y * w + x];
             let (sx, sy) = (x as isize + dx, y as isize + dy);
-            let wt = weights.at(x, y, 0);
-            let px = &mut row[x * c..(x + 1) * c];
             if !inside(sx, sy) {
                 continue;
             }
-            let keep = (1.0 - wt * wt).max(0.0).sqrt() * gain.at(x, y, 0);
-            for (ch, o) in px.iter_mut().enumerate() {
+            let wt = weights.at(x, y, 0);
+            let keep = borrowed_share(wt) * gain.at(x, y, 0);
+            for (ch, o) in row[x * c..(x + 1) * c].iter_mut().enumerate() {
                 *o += (wt - 1.0) * fine.at(x, y, ch) + keep * fine.at(sx as usize, sy as usize, ch);
             }
         }
     });
     out
+}
+
+/// The energy-preserving partner of weight w: sqrt(1 - w^2), so that own
+/// and borrowed uncorrelated texture blended as w and this keep their
+/// energy (see [`update`]).
+fn borrowed_share(w: f32) -> f32 {
+    (1.0 - w * w).max(0.0).sqrt()
 }
 
 /// Largest gain on borrowed grain: more amplified the JPEG noise of calm
