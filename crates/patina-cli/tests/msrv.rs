@@ -28,9 +28,10 @@ fn declared_rust_version_covers_every_locked_dependency() {
     // sandbox may have no network); if something is still missing, let
     // cargo fetch it.
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let host = host_triple();
     let metadata = |offline: bool| {
         let mut cmd = std::process::Command::new(&cargo);
-        cmd.args(["metadata", "--format-version", "1", "--locked", "--filter-platform", host_triple().as_str()]);
+        cmd.args(["metadata", "--format-version", "1", "--locked", "--filter-platform", host.as_str()]);
         if offline {
             cmd.arg("--offline");
         }

@@ -22,8 +22,8 @@
 //!   quilted, and the output is re-lit (flat by default). Automatic when
 //!   the input's large-scale variation is high.
 //! - Seams hidden in the gradient domain ([`crate::synth::blend`]) at key
-//!   frames spaced by the input's pace, interpolated between, so no seam
-//!   flickers.
+//!   frames every 8 frames (the first solved on frame 0 alone),
+//!   interpolated between, so no seam flickers.
 
 pub mod rate;
 pub mod svd;

@@ -182,8 +182,9 @@ impl TimeWarp {
 ///   sum_t  ||m(t + d(t)) - n(t)||^2 / (cells VISIBLE_STEP^2) + |d(t) - d*(t)| / E,
 ///
 /// plus [`COPY_COST`] for showing the same frame as an earlier copy of the
-/// same source and [`CHANGE_COST`] per change of d, where m and n are the mean colours, per [`CELL`]-pixel cell of the
-/// block's rectangle where earlier blocks show (on both sides of the cut),
+/// same source and [`CHANGE_COST`] per change of d, where m and n are the
+/// mean colours, per [`CELL`]-pixel cell of the block's rectangle where
+/// earlier blocks show (on both sides of the cut),
 /// of this block and of what those blocks show there at their own warped
 /// times, taken relative to the best offset at t; and d* is the random
 /// warp's offset. Where nothing changes across the seam every offset
@@ -234,52 +235,41 @@ pub fn seam_aligned(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32
         } else {
             let means = |theirs: bool| -> Vec<f32> {
                 // [cell][frame][channel]
-                cells
-                    .par_iter()
-                    .flat_map_iter(|px| {
-                        let k = 1.0 / px.len() as f32;
-                        let warps = &warps;
-                        (0..n).flat_map(move |t| {
-                            let mut sum = vec![0f32; c];
-                            for &(mine, j, other) in px {
-                                let v = if theirs {
-                                    frames[warps[j].shown(t)].pixel(other.0, other.1)
-                                } else {
-                                    frames[t].pixel(mine.0, mine.1)
-                                };
-                                sum.iter_mut().zip(v).for_each(|(s, v)| *s += k * v);
-                            }
-                            sum
-                        })
-                    })
-                    .collect()
+                let mut out = vec![0f32; cells.len() * n * c];
+                out.par_chunks_mut(n * c).zip(&cells).for_each(|(out, px)| {
+                    let k = 1.0 / px.len() as f32;
+                    for (t, sum) in out.chunks_exact_mut(c).enumerate() {
+                        for &(mine, j, other) in px {
+                            let v = if theirs { frames[warps[j].shown(t)].pixel(other.0, other.1) } else { frames[t].pixel(mine.0, mine.1) };
+                            sum.iter_mut().zip(v).for_each(|(s, v)| *s += k * v);
+                        }
+                    }
+                });
+                out
             };
             let (mine, theirs) = (means(false), means(true));
             let norm = 1.0 / (cells.len() as f32 * c as f32 * VISIBLE_STEP * VISIBLE_STEP);
-            // Mismatch of offset d (state d + band) at frame t.
-            let mismatch: Vec<f32> = (0..n)
-                .into_par_iter()
-                .flat_map_iter(|t| {
-                    let (mine, theirs) = (&mine, &theirs);
-                    let costs: Vec<f32> = (0..states)
-                        .map(|s| {
-                            let tau = t as isize + s as isize - band as isize;
-                            if tau < 0 || tau >= n as isize {
-                                return f32::INFINITY;
-                            }
-                            let mut e = 0f32;
-                            for cell in 0..cells.len() {
-                                let a = &mine[(cell * n + tau as usize) * c..][..c];
-                                let b = &theirs[(cell * n + t) * c..][..c];
-                                e += a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f32>();
-                            }
-                            e * norm
-                        })
-                        .collect();
-                    let best = costs.iter().copied().fold(f32::INFINITY, f32::min);
-                    costs.into_iter().map(move |e| e - best)
-                })
-                .collect();
+            // Mismatch of offset d (state d + band) at frame t, relative to
+            // the best offset at t.
+            let mut mismatch = vec![0f32; n * states];
+            mismatch.par_chunks_mut(states).enumerate().for_each(|(t, costs)| {
+                for (s, e) in costs.iter_mut().enumerate() {
+                    let tau = t as isize + s as isize - band as isize;
+                    *e = if tau < 0 || tau >= n as isize {
+                        f32::INFINITY
+                    } else {
+                        let mut e = 0f32;
+                        for cell in 0..cells.len() {
+                            let a = &mine[(cell * n + tau as usize) * c..][..c];
+                            let b = &theirs[(cell * n + t) * c..][..c];
+                            e += a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f32>();
+                        }
+                        e * norm
+                    };
+                }
+                let best = costs.iter().copied().fold(f32::INFINITY, f32::min);
+                costs.iter_mut().for_each(|e| *e -= best);
+            });
             // Earlier copies of (much of) this block's source, with the share
             // of it they hold: showing the same frame as one of them makes a
             // near-verbatim repeat.
