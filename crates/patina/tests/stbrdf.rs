@@ -184,3 +184,50 @@ fn a_tileable_enlargement_repeats_without_seams_at_every_time() {
     let e = enlarge(&captured, (160, 160), &stretched, None, 3, None).unwrap_err();
     assert!(e.is_usage() && e.to_string().contains("tileable"), "{e}");
 }
+
+/// Grow-mode transfer keeps the source's pace and starts where the target
+/// is exposed. Ground truth: the rusting time-lapse's own rusted share
+/// over time (spots nucleating at known times), and a painted target with
+/// dark chips (pits) at known places.
+#[test]
+fn grown_rust_keeps_the_sources_pace() {
+    use patina::stbrdf::transfer::{transfer, TransferParams};
+    let frames = samples::rusting_timelapse(64, 64, 21, 5);
+    let times: Vec<f32> = (0..21).map(|i| i as f32 / 20.0).collect();
+    let mut material = fit::fit(&frames, &times, 3, diffuse()).unwrap().material;
+    material.encoding = Encoding::Srgb;
+    // Share of pixels at least 0.1 darker than at the start.
+    let rusted = |img: &Image, start: &Image, only: &dyn Fn(usize) -> bool| {
+        let (a, b) = (luminance(img), luminance(start));
+        let (mut n, mut of) = (0usize, 0usize);
+        for (_, (p, q)) in a.data().iter().zip(b.data()).enumerate().filter(|(i, _)| only(*i)) {
+            of += 1;
+            n += usize::from(*p < q - 0.1);
+        }
+        n as f64 / of.max(1) as f64
+    };
+    let (w, h) = (128, 128);
+    let chips: Vec<(f32, f32)> = (0..48).map(|k| ((k * 37 % 120 + 4) as f32, (k * 53 % 120 + 4) as f32)).collect();
+    let near = |i: usize, r: f32| chips.iter().any(|&(cx, cy)| ((i % w) as f32 - cx).hypot((i / w) as f32 - cy) <= r);
+    let target = Image::from_fn(w, h, 3, |x, y, p| {
+        let grain = 0.12 * (samples::fractal_noise(9, x as f32, y as f32, 12.0, 4) - 0.5);
+        let shade = if near(y * w + x, 2.0) { 0.45 } else { 1.0 };
+        p.copy_from_slice(&[(0.85 + grain) * shade, (0.5 + grain) * shade, (0.25 + grain) * shade]);
+    });
+    let out = transfer(&material, &target, None, &TransferParams::default(), 2, None).unwrap().material;
+    let all = |_: usize| true;
+    let shares: Vec<f64> = (0..=10).map(|k| rusted(&basecolor(&out, k as f32 / 10.0), &target, &all)).collect();
+    let source: Vec<f64> = (0..=10).map(|k| rusted(&frames[2 * k], &frames[0], &all)).collect();
+    eprintln!("rusted share over t: {shares:.3?}\nsource: {source:.3?}");
+    assert!(shares.windows(2).all(|p| p[1] >= p[0] - 0.005), "what has rusted stays rusted: {shares:.3?}");
+    // The source has 37% of its final rust by t = 0.3 (its first spots
+    // nucleate early); a transfer that waits for the spots' late growth had none.
+    assert!(shares[3] >= 0.2 * shares[10], "rust arrives at the source's pace: {shares:.3?} vs {source:.3?}");
+    // Guided synthesis copies few of the spots (8% rusted at t = 1); the
+    // pace completes them to near the source's share.
+    assert!(shares[10] >= 0.6 * source[10] && shares[10] <= 1.2 * source[10], "the source's rusted share: {shares:.3?} vs {source:.3?}");
+    let near_chips = |k: usize, inside: bool| rusted(&basecolor(&out, k as f32 / 10.0), &target, &|i| near(i, 5.0) == inside);
+    // Rust takes hold first at the chips (exposure leads the choice and the timing).
+    let (chipped, open) = (near_chips(3, true), near_chips(3, false));
+    assert!(chipped > 1.2 * open, "t = 0.3: {chipped:.3} rusted within 5 px of a chip against {open:.3} elsewhere");
+}

@@ -36,9 +36,9 @@
 //! the photo's own detail and shading). It appears only where the decay
 //! has begun (D > 0), so pixels at D = 0 stay the photo's bytes.
 
-use crate::image::noise::{smoothstep, Layer};
 use crate::image::color::{lab_pixel_to_srgb, linear_pixel_to_lab, srgb_to_linear};
 use crate::image::filter::{gaussian_blur, shrunk_blur};
+use crate::image::noise::{smoothstep, Layer};
 use crate::image::{Image, Mask};
 use rayon::prelude::*;
 use serde::Serialize;

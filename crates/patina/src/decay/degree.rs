@@ -1,9 +1,9 @@
 //! Degree maps D in [0, 1]: where and how far the surface has decayed
 //! (Hao et al. 2023, sections III-C2 and III-C4).
 
-use crate::image::noise::{smoothstep, Layer};
 use super::texture::DecayClass;
 use crate::image::filter::gaussian_blur;
+use crate::image::noise::{smoothstep, Layer};
 use crate::image::resample::{resize, Filter};
 use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};

@@ -20,26 +20,33 @@
 //! - [`Mode::Grow`] (not in the paper): the material arrives on the target
 //!   in its own spatial pattern. Ratio and offset move every texel at once,
 //!   which on a photo reads as a tint over all of it; in grow mode each
-//!   texel is covered by the material as far as its own change has come:
-//!   c(x, t) = smoothstep(0.05, 0.3, g(x, t)), never shrinking away
-//!   from t0 (what has arrived stays), with g the texel's
-//!   progress towards its end state (t_D = 1, or 0 when t0 > 0.5):
-//!   the projection of p(x, t) - p(x, t0) on D(x) = p(x, t_D) - p(x, t0),
-//!   over |D(x)|^2. Changes in other
-//!   directions (bare steel brightening before it rusts, a capture's
-//!   drift) do not count, a spot counts as arrived before it has darkened
-//!   all the way. The material arrives only on texels whose whole change
-//!   |D| passes 0.5 to 0.8 of the 90th percentile's (the spots, not
-//!   rusting steel's pale background, which washed the object out);
-//!   out(x, t) = target(x) + c(x, t) (S(x) p(x, t_D) - target(x)), where
-//!   p(x, t_D) is what the material becomes there (rust, not the bare
-//!   steel it was before it rusted) and S is the target's
-//!   luminance over its median (its shading, so the arriving material is
-//!   lit like the object). A spot that
-//!   appears late in the source appears late on the target, where the
-//!   guided synthesis put it. The result is refitted per texel by least
-//!   squares, with the polynomial pinned to the target at t0
-//!   ([`Fitter::anchored`]), at degree 6 at least ([`GROW_DEGREE`]).
+//!   texel takes the material on at its own arrival time A(x), with a
+//!   short front: c(x, t) = smoothstep(A - w, A + w, tau), tau = (t - t0)
+//!   / (t_D - t0) (t_D = 1, or 0 when t0 > 0.5), w = [`GROW_FRONT`], so
+//!   what has arrived stays, and a spot grows as its front passes
+//!   instead of fading in whole.
+//!   - A texel's progress is the projection of p(x, t) - p(x, t0) on
+//!     D(x) = p(x, t_D) - p(x, t0), over |D(x)|^2 (changes in other
+//!     directions, bare steel brightening before it rusts or a capture's
+//!     drift, do not count); its onset o is when progress passes 0.5, and
+//!     its own arrival is o for the full change, later for weaker ones
+//!     ([`Timing::arrival`]): cores before rims.
+//!   - The source's pace ([`Pace`]): the result's texels are chosen and
+//!     timed by rank so that the share covered at each time is the
+//!     source's ([`paced`]). Rank goes by the result's own strength and
+//!     arrival, brought forward by the target's exposure ([`exposure`]:
+//!     crevices, chips and bolt shadows darker than their surroundings,
+//!     and the object's rim), so rust takes hold there first.
+//!   - out(x, t) = target(x) + c(x, t) (S(x) (p(x, t0) + D'(x)) - target(x)):
+//!     what the material becomes there (rust, not the bare steel it was
+//!     before it rusted), its own change D' = D where that is strong,
+//!     blended towards the material's mean change where it is weak
+//!     ([`full_change`]); S is the target's luminance over its median (its
+//!     shading, so the arriving material is lit like the object).
+//!   - The result is refitted per texel by least squares, with the
+//!     polynomial pinned to the target at t0 ([`Fitter::anchored`]), at
+//!     degree 6 at least ([`GROW_DEGREE`]); the front's width w is what a
+//!     degree-6 polynomial follows without ringing.
 //!
 //! With a mask, only the object changes: the result is blended with the
 //! target by the mask's value, and texels outside it hold the target as a
@@ -50,7 +57,7 @@ use super::material::Material;
 use super::poly::{evaluate, Fitter};
 use crate::error::{Error, Result};
 use crate::image::color::luminance;
-use crate::image::filter::equalize;
+use crate::image::filter::{equalize, gaussian_blur};
 use crate::image::Image;
 use crate::synth::{OptimizeParams, Progress};
 use rayon::prelude::*;
@@ -63,15 +70,9 @@ const RATIO_LIMIT: f32 = 4.0;
 /// [`Mode::Auto`] picks offset when the median texel's largest change is at
 /// least this share of its value at t0.
 const AUTO_OFFSET_CHANGE: f32 = 0.5;
-/// [`Mode::Grow`]'s cover ramps over this band of a texel's progress
-/// towards its largest change (module docs).
-const GROW_PROGRESS: (f32, f32) = (0.05, 0.3);
-/// The material arrives on texels whose whole change (an RGB distance)
-/// passes this band of the 90th percentile's ([`GROW_TOP`]), and never
-/// where it is below [`GROW_MIN_CHANGE`].
+/// The quantile of the whole change over the object that counts as the
+/// material's full change ([`Timing::top`]).
 const GROW_TOP: f32 = 0.9;
-const GROW_BAND: (f32, f32) = (0.5, 0.8);
-const GROW_MIN_CHANGE: (f32, f32) = (0.04, 0.12);
 /// Smallest degree of [`Mode::Grow`]'s result: a cubic cannot follow a
 /// texel's cover switching on, and rang (a spot darkening, lightening,
 /// then darkening again).
@@ -169,7 +170,7 @@ pub fn transfer(
         chosen => chosen,
     };
     let (degree, coefficients) = match mode {
-        Mode::Grow => grow(&synthesized, target, mask, kd, t0)?,
+        Mode::Grow => grow(&synthesized, target, mask, kd.clone(), t0, &Pace::of(material, kd, t0))?,
         _ => (material.degree, scaled(&synthesized, target, kd, t0, mode)),
     };
     let mut out = Material::new(degree, material.params.clone(), coefficients)?;
@@ -215,12 +216,201 @@ fn scaled(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f
     coefficients
 }
 
-/// [`Mode::Grow`] (module docs): per texel, the cover c(t) from the
-/// synthesized Diffuse's progress towards its end state, the Diffuse
-/// pulled from the target towards what the material becomes there (lit by
-/// the target's shading) by c, every other parameter from its t0 value
-/// towards its value then by c, refitted pinned at t0.
-fn grow(material: &Material, target: &Image, mask: Option<&Image>, kd: std::ops::Range<usize>, t0: f32) -> Result<(usize, Image)> {
+/// Progress towards its end state at which a texel's change counts as under way.
+const ONSET_PROGRESS: f32 = 0.5;
+/// Steps of the search for that moment over [t0, t_D].
+const ONSET_STEPS: usize = 32;
+/// [`Mode::Grow`]: strength (whole change over the 90th percentile's,
+/// [`GROW_TOP`]) at which the material arrives last, at t_D; weaker texels
+/// never take it on.
+const GROW_CUT: f32 = 0.75;
+/// Half-width of a texel's arrival, in units of t_D - t0. The front's
+/// width in pixels is this over the arrival time's gradient; narrower
+/// arrivals ring in the degree-6 refit.
+const GROW_FRONT: f32 = 0.1;
+/// The whole change below which nothing counts as the material's (an RGB
+/// distance; keeps a material that barely changes from arriving at all).
+const GROW_MIN_TOP: f32 = 0.1;
+
+/// When each texel of a material takes on its change (module docs): its
+/// whole change |D| = |p(t_D) - p(t0)| of the Diffuse (an RGB distance)
+/// and its onset, the first time its progress (the projection of p(t) -
+/// p(t0) on D, over |D|^2) passes [`ONSET_PROGRESS`], in units of t_D - t0
+/// (0 at t0, 1 at t_D).
+struct Timing {
+    /// D, the Diffuse's whole change.
+    end: Vec<[f32; 3]>,
+    size: Vec<f32>,
+    onset: Vec<f32>,
+    /// t_D: 1, or 0 when t0 is past the middle.
+    end_at: f32,
+}
+
+impl Timing {
+    fn of(material: &Material, kd: std::ops::Range<usize>, t0: f32) -> Timing {
+        let m = material.degree + 1;
+        let end_at = if t0 <= 0.5 { 1.0 } else { 0.0 };
+        let n = material.coefficients.channels();
+        let delta = |a: &[f32], t: f32| -> [f32; 3] {
+            std::array::from_fn(|i| {
+                let c = (kd.start + i) * m;
+                evaluate(&a[c..c + m], t) - evaluate(&a[c..c + m], t0)
+            })
+        };
+        let texels: Vec<([f32; 3], (f32, f32))> = material
+            .coefficients
+            .data()
+            .par_chunks(n)
+            .map(|a| {
+                let end = delta(a, end_at);
+                let whole = end.iter().map(|v| v * v).sum::<f32>();
+                if whole <= 0.0 {
+                    return (end, (0.0, 1.0));
+                }
+                let mut before = 0.0;
+                for k in 1..=ONSET_STEPS {
+                    let tau = k as f32 / ONSET_STEPS as f32;
+                    let d = delta(a, t0 + tau * (end_at - t0));
+                    let progress = (d[0] * end[0] + d[1] * end[1] + d[2] * end[2]) / whole;
+                    if progress >= ONSET_PROGRESS {
+                        let within = (ONSET_PROGRESS - before) / (progress - before).max(1e-6);
+                        return (end, (whole.sqrt(), (tau - (1.0 - within) / ONSET_STEPS as f32).clamp(0.0, 1.0)));
+                    }
+                    before = progress;
+                }
+                (end, (whole.sqrt(), 1.0))
+            })
+            .collect();
+        let (end, (size, onset)) = texels.into_iter().unzip();
+        Timing { end, size, onset, end_at }
+    }
+
+    /// The largest change that counts as the material's full change: the
+    /// [`GROW_TOP`] quantile, at least [`GROW_MIN_TOP`]. Taken on the
+    /// source material: on a result that copied few of its spots, the
+    /// result's own quantile made bare steel's drift count as rust.
+    fn top(&self) -> f32 {
+        quantile(&self.size, GROW_TOP).max(GROW_MIN_TOP)
+    }
+
+    /// Texel `i`'s own arrival, in units of t_D - t0: a texel with the full
+    /// change (strength s = |D| / top >= 1) arrives at its onset o, weaker
+    /// ones later, A = o + (1 - o) (1 - s) / (1 - [`GROW_CUT`]), so that a
+    /// spot grows outwards from its core as its rim's arrival comes; at
+    /// s = GROW_CUT, A = 1, and weaker texels never arrive (A past 1 by
+    /// more than the arrival's width, growing as s falls).
+    fn arrival(&self, i: usize, top: f32) -> f32 {
+        let (s, o) = ((self.size[i] / top).min(1.0), self.onset[i]);
+        if s < GROW_CUT {
+            1.0 + GROW_FRONT + (GROW_CUT - s)
+        } else {
+            o + (1.0 - o) * (1.0 - s) / (1.0 - GROW_CUT)
+        }
+    }
+}
+
+/// The source material's pace, which [`Mode::Grow`] gives the result.
+struct Pace {
+    /// The arrivals (<= 1) of the source's texels, sorted.
+    arrivals: Vec<f32>,
+    /// The share of the source's texels that take on the change.
+    share: f32,
+    /// The mean whole change D of those texels: the material's change
+    /// where a texel of the result has too little of its own.
+    change: [f32; 3],
+    top: f32,
+}
+
+impl Pace {
+    fn of(material: &Material, kd: std::ops::Range<usize>, t0: f32) -> Pace {
+        let timing = Timing::of(material, kd, t0);
+        let top = timing.top();
+        let arriving: Vec<usize> = (0..timing.size.len()).filter(|&i| timing.arrival(i, top) <= 1.0).collect();
+        let mut arrivals: Vec<f32> = arriving.iter().map(|&i| timing.arrival(i, top)).collect();
+        arrivals.sort_by(f32::total_cmp);
+        let n = arriving.len().max(1) as f32;
+        let change = std::array::from_fn(|c| arriving.iter().map(|&i| timing.end[i][c]).sum::<f32>() / n);
+        Pace { arrivals, share: arriving.len() as f32 / timing.size.len().max(1) as f32, change, top }
+    }
+}
+
+/// How far ahead of its rank (a share of the object's texels) the most
+/// exposed texel ([`exposure`]) arrives, and is chosen to arrive at all.
+const EXPOSURE_LEAD: f32 = 0.25;
+
+/// Each texel's arrival time on the target, from the source's pace:
+/// - which texels take on the material: the source's share of them (over
+///   the object, and separately off it), those of the highest strength
+///   (own |D| / top, at most 1) plus [`EXPOSURE_LEAD`] times their
+///   exposure. Guided synthesis under-copies rare spots (on the rusting
+///   steel capture onto a painted test texture, 8% of the result against
+///   28% of the source had rusted at t = 1), so the result's own strongest
+///   changes are completed to the source's share, crevices first;
+/// - when: the chosen texels are ordered by their own arrival (strength
+///   floored at [`GROW_CUT`]) as a rank r in [0, 1], brought forward by
+///   [`EXPOSURE_LEAD`] times their exposure, and given the source's arrival
+///   at that rank. So the covered share grows at the source's pace (0.1%
+///   of the result's texels had changed before t = 0.5 against 5.6% of
+///   the source's, on the capture onto a photo), and within it the
+///   result's own spots lead, cores before rims, crevices before open paint.
+///
+/// Texels that never take it on get an arrival past 1 (no cover).
+fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, pace: &Pace) -> Vec<f32> {
+    let n = timing.size.len();
+    let mut out = vec![1.0 + 2.0 * GROW_FRONT; n];
+    if pace.arrivals.is_empty() {
+        return out;
+    }
+    let e = exposure.data();
+    let strength = |i: usize| (timing.size[i] / pace.top).min(1.0);
+    let last = (pace.arrivals.len() - 1) as f32;
+    let by = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+    for on in [true, false] {
+        let group: Vec<usize> = (0..n).filter(|&i| mask.is_none_or(|m| (m.data()[i] > 0.5) == on)).collect();
+        let mut chosen: Vec<(f32, usize)> = group.iter().map(|&i| (-(strength(i) + EXPOSURE_LEAD * e[i]), i)).collect();
+        chosen.sort_by(by);
+        chosen.truncate((pace.share * group.len() as f32).round() as usize);
+        let mut own: Vec<(f32, usize)> = chosen
+            .iter()
+            .map(|&(_, i)| {
+                let (s, o) = (strength(i).max(GROW_CUT), timing.onset[i]);
+                (o + (1.0 - o) * (1.0 - s) / (1.0 - GROW_CUT), i)
+            })
+            .collect();
+        own.sort_by(by);
+        let span = own.len().max(2) as f32 - 1.0;
+        let mut keyed: Vec<(f32, usize)> = own.iter().enumerate().map(|(r, &(_, i))| (r as f32 / span - EXPOSURE_LEAD * e[i], i)).collect();
+        keyed.sort_by(by);
+        for (r, &(_, i)) in keyed.iter().enumerate() {
+            out[i] = pace.arrivals[((r as f32 / span) * last).round() as usize];
+        }
+    }
+    out
+}
+
+/// What texel `i` becomes: its own whole change where it is at least
+/// [`GROW_CUT`] of the full change, and below that blended towards the
+/// material's mean change (texels the pace chose that have too little
+/// change of their own). Scaling weak changes up to the full one instead
+/// turned every spot the darkest rust's near-black.
+fn full_change(timing: &Timing, pace: &Pace, i: usize) -> [f32; 3] {
+    let (d, own) = (timing.end[i], (timing.size[i] / pace.top / GROW_CUT).min(1.0));
+    std::array::from_fn(|c| own * d[c] + (1.0 - own) * pace.change[c])
+}
+
+/// [`Mode::Grow`] (module docs): per texel, the cover c(t) from its arrival
+/// ([`Timing::arrival`]), the Diffuse pulled from the target towards what
+/// the material becomes there (lit by the target's shading) by c, every
+/// other parameter from its t0 value towards its value then by c, refitted
+/// pinned at t0.
+fn grow(
+    material: &Material,
+    target: &Image,
+    mask: Option<&Image>,
+    kd: std::ops::Range<usize>,
+    t0: f32,
+    pace: &Pace,
+) -> Result<(usize, Image)> {
     let m = material.degree + 1;
     let out_degree = material.degree.max(GROW_DEGREE);
     let samples = 4 * (out_degree + 1);
@@ -228,69 +418,46 @@ fn grow(material: &Material, target: &Image, mask: Option<&Image>, kd: std::ops:
     let fitter = Fitter::anchored(&times, out_degree, t0)?;
     let mo = out_degree + 1;
     let channels = material.channels();
-    // The Diffuse change since t0 at each sample time.
-    let delta = |a: &[f32], t: f32| -> [f32; 3] {
-        std::array::from_fn(|i| {
-            let c = kd.start + i;
-            evaluate(&a[c * m..(c + 1) * m], t) - evaluate(&a[c * m..(c + 1) * m], t0)
-        })
-    };
-    let coefficients = &material.coefficients;
-    let n = coefficients.channels();
-    // Each texel's cover is its progress towards its own end state (t = 1,
-    // or t = 0 when t0 is past the middle): the projection of the change so
-    // far on the whole change. Changes in other directions (bare steel
-    // brightening before it rusts, the capture's drift) do not count, and
-    // a spot counts as arrived well before it has darkened all the way.
-    let end_at = if t0 <= 0.5 { 1.0 } else { 0.0 };
-    let whole = |a: &[f32]| delta(a, end_at).iter().map(|v| v * v).sum::<f32>().sqrt();
-    // Which texels the material arrives on: those whose whole change is
-    // near the largest (the 90th percentile over the object). The rest of
-    // the material (rusting steel's pale background) stays the target's:
-    // covering the paint with it washed the object out.
-    let sizes: Vec<f32> = coefficients.data().par_chunks(n).map(whole).collect();
-    let inside = on_object(&sizes, mask);
-    let top = if inside.is_empty() { 1.0 } else { quantile(&inside, GROW_TOP) };
-    let band = ((GROW_BAND.0 * top).max(GROW_MIN_CHANGE.0), (GROW_BAND.1 * top).max(GROW_MIN_CHANGE.1));
-    // What has arrived stays: the cover only grows away from t0, forwards
-    // from the first sample at or after it and backwards from the one before.
-    let first_after = times.iter().position(|&t| t >= t0).unwrap_or(times.len());
-    let cover_of = |a: &[f32], cover: &mut [f32]| {
-        let end = delta(a, end_at);
-        let size = end.iter().map(|v| v * v).sum::<f32>();
-        let matters = smoothstep(band.0, band.1, size.sqrt());
+    let timing = Timing::of(material, kd.clone(), t0);
+    let end_at = timing.end_at;
+    let arrivals = paced(&timing, &exposure(target, mask), mask, pace);
+    // The cover: 0 up to t0, then a smoothstep of half-width GROW_FRONT
+    // around the arrival, which is never before GROW_FRONT (nothing has
+    // arrived at t0 itself). It only grows away from t0: what has arrived stays.
+    let cover_of = |arrival: f32, cover: &mut [f32]| {
+        let arrival = arrival.max(GROW_FRONT);
         for (c, &t) in cover.iter_mut().zip(&times) {
-            let d = delta(a, t);
-            let progress = if size > 0.0 { (d[0] * end[0] + d[1] * end[1] + d[2] * end[2]) / size } else { 0.0 };
-            *c = matters * smoothstep(GROW_PROGRESS.0, GROW_PROGRESS.1, progress);
-        }
-        for k in first_after + 1..cover.len() {
-            cover[k] = cover[k].max(cover[k - 1]);
-        }
-        for k in (0..first_after.saturating_sub(1)).rev() {
-            cover[k] = cover[k].max(cover[k + 1]);
+            let tau = (t - t0) / (end_at - t0);
+            *c = if tau <= 0.0 { 0.0 } else { smoothstep(arrival - GROW_FRONT, arrival + GROW_FRONT, tau) };
         }
     };
     // The target's shading, relative to its median luminance (over the object).
     let lum = luminance(&target.select_channels(0..3));
     let lums = on_object(lum.data(), mask);
     let median = if lums.is_empty() { 1.0 } else { quantile(&lums, 0.5).max(1e-3) };
+    let coefficients = &material.coefficients;
+    let n = coefficients.channels();
     let mut out = Image::new(coefficients.width(), coefficients.height(), channels * mo);
     out.data_mut()
         .par_chunks_mut(channels * mo)
         .zip(coefficients.data().par_chunks(n))
         .zip(target.data().par_chunks(target.channels()))
         .zip(lum.data().par_iter())
+        .enumerate()
         .for_each_init(
             || (vec![0f32; samples], vec![0f32; samples]),
-            |(cover, q), (((o, a), want), &l)| {
+            |(cover, q), (i, (((o, a), want), &l))| {
                 let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1);
-                cover_of(a, cover);
+                cover_of(arrivals[i], cover);
                 for c in 0..channels {
                     let poly = &a[c * m..(c + 1) * m];
                     let diffuse = kd.contains(&c);
                     let base = if diffuse { want[c - kd.start] } else { evaluate(poly, t0) };
-                    let arrived = if diffuse { shading } else { 1.0 } * evaluate(poly, end_at);
+                    let arrived = if diffuse {
+                        shading * (evaluate(poly, t0) + full_change(&timing, pace, i)[c - kd.start])
+                    } else {
+                        evaluate(poly, end_at)
+                    };
                     for (qk, &ck) in q.iter_mut().zip(cover.iter()) {
                         *qk = ck * (arrived - base);
                     }
@@ -301,6 +468,39 @@ fn grow(material: &Material, target: &Image, mask: Option<&Image>, kd: std::ops:
             },
         );
     Ok((out_degree, out))
+}
+
+/// Cavity contrast that counts as fully exposed: a texel this much darker
+/// than its surroundings (relative to them) is a crevice, chip or bolt.
+const EXPOSED_CAVITY: f32 = 0.25;
+/// Scale (sigma, px) of the surroundings a cavity is measured against.
+const CAVITY_SIGMA: f32 = 4.0;
+/// Width (sigma, px) of the object's rim, and its exposure there.
+const RIM_SIGMA: f32 = 3.0;
+const RIM_EXPOSURE: f32 = 0.3;
+
+/// How exposed each texel of the target is to weathering, in [0, 1]:
+/// where rust starts and moss takes hold. Crevices, chips and the shadows
+/// around bolts are darker than their surroundings (the cavity term:
+/// (B - L) / B over [`EXPOSED_CAVITY`], B the luminance L blurred at
+/// [`CAVITY_SIGMA`]), and the object's rim (from the mask) is its edges.
+/// A simple stand-in for curvature and accessibility, which a single
+/// photo does not give.
+fn exposure(target: &Image, mask: Option<&Image>) -> Image {
+    let lum = luminance(&target.select_channels(0..3));
+    let around = gaussian_blur(&lum, CAVITY_SIGMA);
+    let rim = mask.map(|m| gaussian_blur(m, RIM_SIGMA));
+    let (w, h) = lum.size();
+    let raw = Image::from_fn(w, h, 1, |x, y, p| {
+        let (l, b) = (lum.at(x, y, 0), around.at(x, y, 0));
+        let cavity = ((b - l) / b.max(0.05) / EXPOSED_CAVITY).clamp(0.0, 1.0);
+        let edge = match (&rim, mask) {
+            (Some(r), Some(m)) if m.at(x, y, 0) > 0.5 => (2.0 * (1.0 - r.at(x, y, 0))).clamp(0.0, 1.0) * RIM_EXPOSURE,
+            _ => 0.0,
+        };
+        p[0] = cavity.max(edge);
+    });
+    gaussian_blur(&raw, 1.5)
 }
 
 /// The values of the texels on the object: where the mask is over 0.5, or all.

@@ -300,8 +300,8 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let mut frames = Vec::with_capacity(times.len());
     for (i, &t) in times.iter().enumerate() {
         let weights = prep.borrowing.weights(&prep.mask, (p.k, t), &chips);
-        let smoothed =
-            update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.sources), &prep.borrowing).map(|v| v.max(0.0).powf(GAMMA));
+        let smoothed = update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.sources), &prep.borrowing)
+            .map(|v| v.max(0.0).powf(GAMMA));
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
         let rough = if p.pits { pits::pit(&rough, &prep.tendency, p.k, t, seed) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);

@@ -207,7 +207,8 @@ mod tests {
         let lambda = 1.0 - (-1.0f32).exp();
         // The extreme pixel is held to the object's range.
         assert!((out.data()[3 * (5 * w + 5)] - 0.5).abs() < 1e-6, "{}", out.data()[3 * (5 * w + 5)]);
-        let extreme = |i: usize| i == 5 * w + 5 || !(0.3 + 1e-4..0.5 - 1e-4).contains(&(img.data()[3 * i] * (1.0 + lambda * fractal.data()[i])));
+        let extreme =
+            |i: usize| i == 5 * w + 5 || !(0.3 + 1e-4..0.5 - 1e-4).contains(&(img.data()[3 * i] * (1.0 + lambda * fractal.data()[i])));
         for i in (0..w * h).filter(|&i| !extreme(i)) {
             let want = img.data()[3 * i] * (1.0 + lambda * fractal.data()[i]);
             assert!((out.data()[3 * i] - want).abs() < 1e-5, "pixel {i}: {} vs {want}", out.data()[3 * i]);

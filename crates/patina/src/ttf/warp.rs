@@ -240,7 +240,8 @@ pub fn seam_aligned(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32
                     let k = 1.0 / px.len() as f32;
                     for (t, sum) in out.chunks_exact_mut(c).enumerate() {
                         for &(mine, j, other) in px {
-                            let v = if theirs { frames[warps[j].shown(t)].pixel(other.0, other.1) } else { frames[t].pixel(mine.0, mine.1) };
+                            let v =
+                                if theirs { frames[warps[j].shown(t)].pixel(other.0, other.1) } else { frames[t].pixel(mine.0, mine.1) };
                             sum.iter_mut().zip(v).for_each(|(s, v)| *s += k * v);
                         }
                     }
