@@ -220,12 +220,17 @@ fn grown_rust_keeps_the_sources_pace() {
     let source: Vec<f64> = (0..=10).map(|k| rusted(&frames[2 * k], &frames[0], &all)).collect();
     eprintln!("rusted share over t: {shares:.3?}\nsource: {source:.3?}");
     assert!(shares.windows(2).all(|p| p[1] >= p[0] - 0.005), "what has rusted stays rusted: {shares:.3?}");
-    // The source has 37% of its final rust by t = 0.3 (its first spots
-    // nucleate early); a transfer that waits for the spots' late growth had none.
-    assert!(shares[3] >= 0.2 * shares[10], "rust arrives at the source's pace: {shares:.3?} vs {source:.3?}");
-    // Guided synthesis copies few of the spots (8% rusted at t = 1); the
-    // pace completes them to near the source's share.
-    assert!(shares[10] >= 0.6 * source[10] && shares[10] <= 1.2 * source[10], "the source's rusted share: {shares:.3?} vs {source:.3?}");
+    // The rusted share follows the source's from t = 0.3 on (at t = 0.1
+    // the source's first spots are specks). Guided synthesis alone copies
+    // few spots (0.006 rusted at t = 1); the pace completes them.
+    for k in 3..=10 {
+        let ratio = shares[k] / source[k];
+        assert!(
+            (0.6..=1.4).contains(&ratio),
+            "t = {}: rusted share {ratio:.2}x the source's: {shares:.3?} vs {source:.3?}",
+            k as f32 / 10.0
+        );
+    }
     let near_chips = |k: usize, inside: bool| rusted(&basecolor(&out, k as f32 / 10.0), &target, &|i| near(i, 5.0) == inside);
     // Rust takes hold first at the chips (exposure leads the choice and the timing).
     let (chipped, open) = (near_chips(3, true), near_chips(3, false));

@@ -37,12 +37,14 @@
 //!     arrival, brought forward by the target's exposure ([`exposure`]:
 //!     crevices, chips and bolt shadows darker than their surroundings,
 //!     and the object's rim), so rust takes hold there first.
-//!   - out(x, t) = target(x) + c(x, t) (S(x) (p(x, t0) + D'(x)) - target(x)):
+//!   - out(x, t) = target(x) + c(x, t) (S(x) p'(x, t_D) - target(x)):
 //!     what the material becomes there (rust, not the bare steel it was
-//!     before it rusted), its own change D' = D where that is strong,
-//!     blended towards the material's mean change where it is weak
-//!     ([`full_change`]); S is the target's luminance over its median (its
-//!     shading, so the arriving material is lit like the object).
+//!     before it rusted), its own end state p(x, t_D) where its change is
+//!     strong, blended towards the material's mean end state where it is
+//!     weak, and un-mixed from the background where the synthesis averaged
+//!     a spot with it ([`end_state`]); S is the target's luminance over its median
+//!     (its shading, so the arriving material is lit like the object),
+//!     within [`SHADING_RANGE`].
 //!   - The result is refitted per texel by least squares, with the
 //!     polynomial pinned to the target at t0 ([`Fitter::anchored`]), at
 //!     degree 6 at least ([`GROW_DEGREE`]); the front's width w is what a
@@ -79,7 +81,7 @@ const GROW_TOP: f32 = 0.9;
 const GROW_DEGREE: usize = 6;
 /// Limits of the target's shading (luminance over its median) that
 /// [`Mode::Grow`] lights the arriving material with.
-const SHADING_RANGE: (f32, f32) = (0.2, 2.0);
+const SHADING_RANGE: (f32, f32) = (0.5, 1.6);
 
 /// How the target's albedo is tied to the material's at t0 (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -223,7 +225,11 @@ const ONSET_STEPS: usize = 32;
 /// [`Mode::Grow`]: strength (whole change over the 90th percentile's,
 /// [`GROW_TOP`]) at which the material arrives last, at t_D; weaker texels
 /// never take it on.
-const GROW_CUT: f32 = 0.75;
+const GROW_CUT: f32 = 0.6;
+/// How much later than its onset a texel at the cut arrives, as a share of
+/// the time left after it (a spot's rims a little after its core; more
+/// pushed the source's early spots' growth to the very end).
+const GROW_RIM_DELAY: f32 = 0.25;
 /// Half-width of a texel's arrival, in units of t_D - t0. The front's
 /// width in pixels is this over the arrival time's gradient; narrower
 /// arrivals ring in the degree-6 refit.
@@ -238,8 +244,6 @@ const GROW_MIN_TOP: f32 = 0.1;
 /// p(t0) on D, over |D|^2) passes [`ONSET_PROGRESS`], in units of t_D - t0
 /// (0 at t0, 1 at t_D).
 struct Timing {
-    /// D, the Diffuse's whole change.
-    end: Vec<[f32; 3]>,
     size: Vec<f32>,
     onset: Vec<f32>,
     /// t_D: 1, or 0 when t0 is past the middle.
@@ -257,7 +261,7 @@ impl Timing {
                 evaluate(&a[c..c + m], t) - evaluate(&a[c..c + m], t0)
             })
         };
-        let texels: Vec<([f32; 3], (f32, f32))> = material
+        let (size, onset) = material
             .coefficients
             .data()
             .par_chunks(n)
@@ -265,7 +269,7 @@ impl Timing {
                 let end = delta(a, end_at);
                 let whole = end.iter().map(|v| v * v).sum::<f32>();
                 if whole <= 0.0 {
-                    return (end, (0.0, 1.0));
+                    return (0.0, 1.0);
                 }
                 let mut before = 0.0;
                 for k in 1..=ONSET_STEPS {
@@ -274,15 +278,14 @@ impl Timing {
                     let progress = (d[0] * end[0] + d[1] * end[1] + d[2] * end[2]) / whole;
                     if progress >= ONSET_PROGRESS {
                         let within = (ONSET_PROGRESS - before) / (progress - before).max(1e-6);
-                        return (end, (whole.sqrt(), (tau - (1.0 - within) / ONSET_STEPS as f32).clamp(0.0, 1.0)));
+                        return (whole.sqrt(), (tau - (1.0 - within) / ONSET_STEPS as f32).clamp(0.0, 1.0));
                     }
                     before = progress;
                 }
-                (end, (whole.sqrt(), 1.0))
+                (whole.sqrt(), 1.0)
             })
-            .collect();
-        let (end, (size, onset)) = texels.into_iter().unzip();
-        Timing { end, size, onset, end_at }
+            .unzip();
+        Timing { size, onset, end_at }
     }
 
     /// The largest change that counts as the material's full change: the
@@ -295,16 +298,16 @@ impl Timing {
 
     /// Texel `i`'s own arrival, in units of t_D - t0: a texel with the full
     /// change (strength s = |D| / top >= 1) arrives at its onset o, weaker
-    /// ones later, A = o + (1 - o) (1 - s) / (1 - [`GROW_CUT`]), so that a
-    /// spot grows outwards from its core as its rim's arrival comes; at
-    /// s = GROW_CUT, A = 1, and weaker texels never arrive (A past 1 by
-    /// more than the arrival's width, growing as s falls).
+    /// ones a little later, A = o + r (1 - o) (1 - s) / (1 - [`GROW_CUT`])
+    /// with r = [`GROW_RIM_DELAY`], so that a spot's rim follows its core;
+    /// texels weaker than GROW_CUT never arrive (A past 1 by more than the
+    /// arrival's width, growing as s falls).
     fn arrival(&self, i: usize, top: f32) -> f32 {
         let (s, o) = ((self.size[i] / top).min(1.0), self.onset[i]);
         if s < GROW_CUT {
             1.0 + GROW_FRONT + (GROW_CUT - s)
         } else {
-            o + (1.0 - o) * (1.0 - s) / (1.0 - GROW_CUT)
+            o + GROW_RIM_DELAY * (1.0 - o) * (1.0 - s) / (1.0 - GROW_CUT)
         }
     }
 }
@@ -315,22 +318,35 @@ struct Pace {
     arrivals: Vec<f32>,
     /// The share of the source's texels that take on the change.
     share: f32,
-    /// The mean whole change D of those texels: the material's change
-    /// where a texel of the result has too little of its own.
-    change: [f32; 3],
+    /// The mean Diffuse at t_D of those texels: what the material becomes
+    /// where a texel of the result has too little change of its own.
+    colour: [f32; 3],
+    /// The mean Diffuse at t_D of the source's other texels: what a spot
+    /// is mixed with where texture optimization averaged it with its
+    /// surroundings (rusting steel's khaki background).
+    background: [f32; 3],
+    /// The median strength (|D| / top) of the texels that take the change on.
+    strength: f32,
     top: f32,
 }
 
 impl Pace {
     fn of(material: &Material, kd: std::ops::Range<usize>, t0: f32) -> Pace {
-        let timing = Timing::of(material, kd, t0);
+        let timing = Timing::of(material, kd.clone(), t0);
         let top = timing.top();
         let arriving: Vec<usize> = (0..timing.size.len()).filter(|&i| timing.arrival(i, top) <= 1.0).collect();
         let mut arrivals: Vec<f32> = arriving.iter().map(|&i| timing.arrival(i, top)).collect();
         arrivals.sort_by(f32::total_cmp);
+        let end = material.evaluate(timing.end_at).select_channels(kd);
         let n = arriving.len().max(1) as f32;
-        let change = std::array::from_fn(|c| arriving.iter().map(|&i| timing.end[i][c]).sum::<f32>() / n);
-        Pace { arrivals, share: arriving.len() as f32 / timing.size.len().max(1) as f32, change, top }
+        let colour = std::array::from_fn(|c| arriving.iter().map(|&i| end.data()[3 * i + c]).sum::<f32>() / n);
+        let total = timing.size.len();
+        let rest = (total - arriving.len()).max(1) as f32;
+        let background =
+            std::array::from_fn(|c| ((0..total).map(|i| end.data()[3 * i + c]).sum::<f32>() - colour[c] * arriving.len() as f32) / rest);
+        let strengths: Vec<f32> = arriving.iter().map(|&i| timing.size[i] / top).collect();
+        let strength = if strengths.is_empty() { 1.0 } else { quantile(&strengths, 0.5) };
+        Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, background, strength, top }
     }
 }
 
@@ -374,7 +390,7 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, pace: &Pace) -
             .iter()
             .map(|&(_, i)| {
                 let (s, o) = (strength(i).max(GROW_CUT), timing.onset[i]);
-                (o + (1.0 - o) * (1.0 - s) / (1.0 - GROW_CUT), i)
+                (o + GROW_RIM_DELAY * (1.0 - o) * (1.0 - s) / (1.0 - GROW_CUT), i)
             })
             .collect();
         own.sort_by(by);
@@ -388,14 +404,27 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, pace: &Pace) -
     out
 }
 
-/// What texel `i` becomes: its own whole change where it is at least
-/// [`GROW_CUT`] of the full change, and below that blended towards the
-/// material's mean change (texels the pace chose that have too little
-/// change of their own). Scaling weak changes up to the full one instead
-/// turned every spot the darkest rust's near-black.
-fn full_change(timing: &Timing, pace: &Pace, i: usize) -> [f32; 3] {
-    let (d, own) = (timing.end[i], (timing.size[i] / pace.top / GROW_CUT).min(1.0));
-    std::array::from_fn(|c| own * d[c] + (1.0 - own) * pace.change[c])
+/// Lowest share of a spot in a texel's end state that [`end_state`] un-mixes.
+const MIN_SPOT_SHARE: f32 = 0.4;
+
+/// What texel `i` becomes, from its own end state `end` (channel `c`):
+/// - texture optimization averages spots with their surroundings, so a
+///   texel of strength s below the source's median arriving strength s_m
+///   is taken as a mix of a spot (share a = s / s_m, at least
+///   [`MIN_SPOT_SHARE`]) and the source's background end state B, and the
+///   spot is un-mixed: (end - (1 - a) B) / a. Kept as they were, these
+///   texels drew a pale khaki outline round every spot;
+/// - below [`GROW_CUT`] of the full change (texels the pace chose with too
+///   little change of their own), blended towards the material's mean end
+///   state ([`Pace::colour`]). Scaling weak changes up to the full one
+///   turned every spot the darkest rust's near-black, and adding the mean
+///   change to a texel already dark at t0 went below zero (saturated maroon).
+fn end_state(timing: &Timing, pace: &Pace, i: usize, c: usize, end: f32) -> f32 {
+    let s = timing.size[i] / pace.top;
+    let a = (s / pace.strength).clamp(MIN_SPOT_SHARE, 1.0);
+    let spot = ((end - (1.0 - a) * pace.background[c]) / a).clamp(0.0, 1.0);
+    let own = (s / GROW_CUT).min(1.0);
+    own * spot + (1.0 - own) * pace.colour[c]
 }
 
 /// [`Mode::Grow`] (module docs): per texel, the cover c(t) from its arrival
@@ -423,9 +452,11 @@ fn grow(
     let arrivals = paced(&timing, &exposure(target, mask), mask, pace);
     // The cover: 0 up to t0, then a smoothstep of half-width GROW_FRONT
     // around the arrival, which is never before GROW_FRONT (nothing has
-    // arrived at t0 itself). It only grows away from t0: what has arrived stays.
+    // arrived at t0 itself) and, for texels that arrive, never after
+    // 1 - GROW_FRONT (what arrives is all there at t_D, not a see-through
+    // wash). It only grows away from t0: what has arrived stays.
     let cover_of = |arrival: f32, cover: &mut [f32]| {
-        let arrival = arrival.max(GROW_FRONT);
+        let arrival = if arrival <= 1.0 { arrival.clamp(GROW_FRONT, 1.0 - GROW_FRONT) } else { arrival };
         for (c, &t) in cover.iter_mut().zip(&times) {
             let tau = (t - t0) / (end_at - t0);
             *c = if tau <= 0.0 { 0.0 } else { smoothstep(arrival - GROW_FRONT, arrival + GROW_FRONT, tau) };
@@ -454,7 +485,7 @@ fn grow(
                     let diffuse = kd.contains(&c);
                     let base = if diffuse { want[c - kd.start] } else { evaluate(poly, t0) };
                     let arrived = if diffuse {
-                        shading * (evaluate(poly, t0) + full_change(&timing, pace, i)[c - kd.start])
+                        shading * end_state(&timing, pace, i, c - kd.start, evaluate(poly, end_at))
                     } else {
                         evaluate(poly, end_at)
                     };
@@ -477,7 +508,7 @@ const EXPOSED_CAVITY: f32 = 0.25;
 const CAVITY_SIGMA: f32 = 4.0;
 /// Width (sigma, px) of the object's rim, and its exposure there.
 const RIM_SIGMA: f32 = 3.0;
-const RIM_EXPOSURE: f32 = 0.3;
+const RIM_EXPOSURE: f32 = 0.15;
 
 /// How exposed each texel of the target is to weathering, in [0, 1]:
 /// where rust starts and moss takes hold. Crevices, chips and the shadows
