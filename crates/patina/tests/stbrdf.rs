@@ -185,7 +185,7 @@ fn a_tileable_enlargement_repeats_without_seams_at_every_time() {
     assert!(e.is_usage() && e.to_string().contains("tileable"), "{e}");
 }
 
-/// Grow-mode transfer keeps the source's pace and starts where the target
+/// Grow-mode transfer keeps the source's pace, grows its spots outwards and starts where the target
 /// is exposed. Ground truth: the rusting time-lapse's own rusted share
 /// over time (spots nucleating at known times), and a painted target with
 /// dark chips (pits) at known places.
@@ -231,6 +231,25 @@ fn grown_rust_keeps_the_sources_pace() {
             k as f32 / 10.0
         );
     }
+    // Spots grow: rust new between t = 0.5 and 1 mostly borders rust that
+    // was there at t = 0.5 (within 2 px) instead of appearing whole.
+    let rusted_px = |k: usize| -> Vec<bool> {
+        let (a, b) = (luminance(&basecolor(&out, k as f32 / 10.0)), luminance(&target));
+        a.data().iter().zip(b.data()).map(|(p, q)| *p < q - 0.1).collect()
+    };
+    let (mid, end) = (rusted_px(5), rusted_px(10));
+    let borders = |i: usize| {
+        let (x, y) = ((i % w) as isize, (i / w) as isize);
+        (-2..=2).any(|dy| {
+            (-2..=2).any(|dx| {
+                let (nx, ny) = (x + dx, y + dy);
+                nx >= 0 && ny >= 0 && nx < w as isize && ny < h as isize && mid[ny as usize * w + nx as usize]
+            })
+        })
+    };
+    let new: Vec<usize> = (0..w * h).filter(|&i| end[i] && !mid[i]).collect();
+    let grown = new.iter().filter(|&&i| borders(i)).count() as f64 / new.len().max(1) as f64;
+    assert!(grown >= 0.6, "{grown:.3} of the rust new after t = 0.5 borders earlier rust (0.44 when blotches arrive whole)");
     let near_chips = |k: usize, inside: bool| rusted(&basecolor(&out, k as f32 / 10.0), &target, &|i| near(i, 5.0) == inside);
     // Rust takes hold first at the chips (exposure leads the choice and the timing).
     let (chipped, open) = (near_chips(3, true), near_chips(3, false));

@@ -44,7 +44,7 @@
 //!     weak, and un-mixed from the background where the synthesis averaged
 //!     a spot with it ([`end_state`]); S is the target's luminance over its median
 //!     (its shading, so the arriving material is lit like the object),
-//!     within [`SHADING_RANGE`].
+//!     softened and limited ([`SHADING_RANGE`]).
 //!   - The result is refitted per texel by least squares, with the
 //!     polynomial pinned to the target at t0 ([`Fitter::anchored`]), at
 //!     degree 6 at least ([`GROW_DEGREE`]); the front's width w is what a
@@ -60,7 +60,7 @@ use super::poly::{evaluate, Fitter};
 use crate::error::{Error, Result};
 use crate::image::color::luminance;
 use crate::image::filter::{equalize, gaussian_blur};
-use crate::image::Image;
+use crate::image::{Image, Mask};
 use crate::synth::{OptimizeParams, Progress};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -79,9 +79,11 @@ const GROW_TOP: f32 = 0.9;
 /// texel's cover switching on, and rang (a spot darkening, lightening,
 /// then darkening again).
 const GROW_DEGREE: usize = 6;
-/// Limits of the target's shading (luminance over its median) that
-/// [`Mode::Grow`] lights the arriving material with.
-const SHADING_RANGE: (f32, f32) = (0.5, 1.6);
+/// Limits of the target's shading that [`Mode::Grow`] lights the arriving
+/// material with: the square root of its luminance over its median (the
+/// full ratio turned rust in crevices near-black, and let the paint's
+/// highlights show through as if the rust were glossy).
+const SHADING_RANGE: (f32, f32) = (0.6, 1.25);
 
 /// How the target's albedo is tied to the material's at t0 (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -395,7 +397,19 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, pace: &Pace) -
             .collect();
         own.sort_by(by);
         let span = own.len().max(2) as f32 - 1.0;
-        let mut keyed: Vec<(f32, usize)> = own.iter().enumerate().map(|(r, &(_, i))| (r as f32 / span - EXPOSURE_LEAD * e[i], i)).collect();
+        // Depth inside the chosen region: a blotch grows from its middle out.
+        let mut region = vec![false; n];
+        own.iter().for_each(|&(_, i)| region[i] = true);
+        let (w, h) = exposure.size();
+        let depth = Mask::from_fn(w, h, |x, y| region[y * w + x]).distance_inside();
+        let mut keyed: Vec<(f32, usize)> = own
+            .iter()
+            .enumerate()
+            .map(|(r, &(_, i))| {
+                let shallow = 1.0 - (depth[i] / GROW_DEPTH).min(1.0);
+                ((1.0 - GROW_FROM_MIDDLE) * r as f32 / span + GROW_FROM_MIDDLE * shallow - EXPOSURE_LEAD * e[i], i)
+            })
+            .collect();
         keyed.sort_by(by);
         for (r, &(_, i)) in keyed.iter().enumerate() {
             out[i] = pace.arrivals[((r as f32 / span) * last).round() as usize];
@@ -403,6 +417,13 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, pace: &Pace) -
     }
     out
 }
+
+/// How much a texel's depth inside the region that takes the material on
+/// decides its rank, against its own arrival: a blotch that arrives in
+/// the source within a few frames grows on the target from its middle out
+/// instead of appearing whole. Depth counts up to [`GROW_DEPTH`] px.
+const GROW_FROM_MIDDLE: f32 = 0.5;
+const GROW_DEPTH: f32 = 6.0;
 
 /// Lowest share of a spot in a texel's end state that [`end_state`] un-mixes.
 const MIN_SPOT_SHARE: f32 = 0.4;
@@ -478,7 +499,7 @@ fn grow(
         .for_each_init(
             || (vec![0f32; samples], vec![0f32; samples]),
             |(cover, q), (i, (((o, a), want), &l))| {
-                let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1);
+                let shading = (l / median).sqrt().clamp(SHADING_RANGE.0, SHADING_RANGE.1);
                 cover_of(arrivals[i], cover);
                 for c in 0..channels {
                     let poly = &a[c * m..(c + 1) * m];
