@@ -147,8 +147,9 @@ pub struct TransferArgs {
     /// Weight of the equalised-luminance guides.
     #[arg(long, default_value_t = 2.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub guide_weight: f32,
-    /// How the material's change lands on the target. grow: the material covers the target texel by texel as its own
-    /// change arrives, in its own spatial pattern (spots appear and spread). ratio: the change scaled by target / material
+    /// How the material's change lands on the target. grow: the material covers the target texel by texel in its own
+    /// spatial pattern, at the source's pace (the share covered over time is the source's), spots growing from their
+    /// middle out and starting in the target's crevices and chips. ratio: the change scaled by target / material
     /// at t0 (eq. 16; wetting, dulling). offset: the change added unscaled. auto: ratio for changes small against the
     /// material at t0, offset for large ones.
     #[arg(long, value_enum, default_value_t = ModeArg::Grow)]
