@@ -483,8 +483,10 @@ fn grow(
             *c = if tau <= 0.0 { 0.0 } else { smoothstep(arrival - GROW_FRONT, arrival + GROW_FRONT, tau) };
         }
     };
-    // The target's shading, relative to its median luminance (over the object).
-    let lum = luminance(&target.select_channels(0..3));
+    // The target's shading, relative to its median luminance (over the
+    // object), at the scale of its form: the paint's grain and gloss do
+    // not show through the material.
+    let lum = gaussian_blur(&luminance(&target.select_channels(0..3)), SHADING_SIGMA);
     let lums = on_object(lum.data(), mask);
     let median = if lums.is_empty() { 1.0 } else { quantile(&lums, 0.5).max(1e-3) };
     let coefficients = &material.coefficients;
@@ -522,6 +524,8 @@ fn grow(
     Ok((out_degree, out))
 }
 
+/// Scale (sigma, px) of the target's shading that lights the material.
+const SHADING_SIGMA: f32 = 2.0;
 /// Cavity contrast that counts as fully exposed: a texel this much darker
 /// than its surroundings (relative to them) is a crevice, chip or bolt.
 const EXPOSED_CAVITY: f32 = 0.25;
