@@ -43,8 +43,8 @@
 //!     strong, blended towards the material's mean end state where it is
 //!     weak, and un-mixed from the background where the synthesis averaged
 //!     a spot with it ([`end_state`]); S is the target's luminance over its median
-//!     (its shading, so the arriving material is lit like the object),
-//!     softened and limited ([`SHADING_RANGE`]).
+//!     (its shading, so the arriving material is lit like the object), at
+//!     the scale of its form ([`SHADING_SIGMA`]) and limited ([`SHADING_RANGE`]).
 //!   - The result is refitted per texel by least squares, with the
 //!     polynomial pinned to the target at t0 ([`Fitter::anchored`]), at
 //!     degree 6 at least ([`GROW_DEGREE`]); the front's width w is what a
@@ -80,10 +80,11 @@ const GROW_TOP: f32 = 0.9;
 /// then darkening again).
 const GROW_DEGREE: usize = 6;
 /// Limits of the target's shading that [`Mode::Grow`] lights the arriving
-/// material with: the square root of its luminance over its median (the
-/// full ratio turned rust in crevices near-black, and let the paint's
-/// highlights show through as if the rust were glossy).
-const SHADING_RANGE: (f32, f32) = (0.6, 1.25);
+/// material with: its luminance, blurred at [`SHADING_SIGMA`], over its
+/// median. Unblurred, the ratio turned rust in crevices near-black and let
+/// the paint's gloss and grain show through; its square root left the
+/// material flat against the object's light (review).
+const SHADING_RANGE: (f32, f32) = (0.5, 1.6);
 
 /// How the target's albedo is tied to the material's at t0 (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -501,7 +502,7 @@ fn grow(
         .for_each_init(
             || (vec![0f32; samples], vec![0f32; samples]),
             |(cover, q), (i, (((o, a), want), &l))| {
-                let shading = (l / median).sqrt().clamp(SHADING_RANGE.0, SHADING_RANGE.1);
+                let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1);
                 cover_of(arrivals[i], cover);
                 for c in 0..channels {
                     let poly = &a[c * m..(c + 1) * m];
