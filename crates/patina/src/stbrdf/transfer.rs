@@ -258,10 +258,10 @@ impl Timing {
         let m = material.degree + 1;
         let end_at = if t0 <= 0.5 { 1.0 } else { 0.0 };
         let n = material.coefficients.channels();
-        let delta = |a: &[f32], t: f32| -> [f32; 3] {
+        let value = |a: &[f32], t: f32| -> [f32; 3] {
             std::array::from_fn(|i| {
                 let c = (kd.start + i) * m;
-                evaluate(&a[c..c + m], t) - evaluate(&a[c..c + m], t0)
+                evaluate(&a[c..c + m], t)
             })
         };
         let (size, onset) = material
@@ -269,7 +269,12 @@ impl Timing {
             .data()
             .par_chunks(n)
             .map(|a| {
-                let end = delta(a, end_at);
+                let at0 = value(a, t0);
+                let delta = |t: f32| -> [f32; 3] {
+                    let v = value(a, t);
+                    std::array::from_fn(|i| v[i] - at0[i])
+                };
+                let end = delta(end_at);
                 let whole = end.iter().map(|v| v * v).sum::<f32>();
                 if whole <= 0.0 {
                     return (0.0, 1.0);
@@ -277,7 +282,7 @@ impl Timing {
                 let mut before = 0.0;
                 for k in 1..=ONSET_STEPS {
                     let tau = k as f32 / ONSET_STEPS as f32;
-                    let d = delta(a, t0 + tau * (end_at - t0));
+                    let d = delta(t0 + tau * (end_at - t0));
                     let progress = (d[0] * end[0] + d[1] * end[1] + d[2] * end[2]) / whole;
                     if progress >= ONSET_PROGRESS {
                         let within = (ONSET_PROGRESS - before) / (progress - before).max(1e-6);
@@ -306,13 +311,19 @@ impl Timing {
     /// texels weaker than GROW_CUT never arrive (A past 1 by more than the
     /// arrival's width, growing as s falls).
     fn arrival(&self, i: usize, top: f32) -> f32 {
-        let (s, o) = ((self.size[i] / top).min(1.0), self.onset[i]);
+        let s = (self.size[i] / top).min(1.0);
         if s < GROW_CUT {
             1.0 + GROW_FRONT + (GROW_CUT - s)
         } else {
-            o + GROW_RIM_DELAY * (1.0 - o) * (1.0 - s) / (1.0 - GROW_CUT)
+            own_arrival(s, self.onset[i])
         }
     }
+}
+
+/// The arrival of a texel of strength `s` (in [`GROW_CUT`], 1) and onset
+/// `o` ([`Timing::arrival`]): o + r (1 - o) (1 - s) / (1 - GROW_CUT).
+fn own_arrival(s: f32, o: f32) -> f32 {
+    o + GROW_RIM_DELAY * (1.0 - o) * (1.0 - s) / (1.0 - GROW_CUT)
 }
 
 /// The source material's pace, which [`Mode::Grow`] gives the result.
@@ -337,8 +348,8 @@ impl Pace {
     fn of(material: &Material, kd: std::ops::Range<usize>, t0: f32) -> Pace {
         let timing = Timing::of(material, kd.clone(), t0);
         let top = timing.top();
-        let arriving: Vec<usize> = (0..timing.size.len()).filter(|&i| timing.arrival(i, top) <= 1.0).collect();
-        let mut arrivals: Vec<f32> = arriving.iter().map(|&i| timing.arrival(i, top)).collect();
+        let (arriving, mut arrivals): (Vec<usize>, Vec<f32>) =
+            (0..timing.size.len()).map(|i| (i, timing.arrival(i, top))).filter(|&(_, a)| a <= 1.0).unzip();
         arrivals.sort_by(f32::total_cmp);
         let end = material.evaluate(timing.end_at).select_channels(kd);
         let n = arriving.len().max(1) as f32;
@@ -389,13 +400,8 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, pace: &Pace) -
         let mut chosen: Vec<(f32, usize)> = group.iter().map(|&i| (-(strength(i) + EXPOSURE_LEAD * e[i]), i)).collect();
         chosen.sort_by(by);
         chosen.truncate((pace.share * group.len() as f32).round() as usize);
-        let mut own: Vec<(f32, usize)> = chosen
-            .iter()
-            .map(|&(_, i)| {
-                let (s, o) = (strength(i).max(GROW_CUT), timing.onset[i]);
-                (o + GROW_RIM_DELAY * (1.0 - o) * (1.0 - s) / (1.0 - GROW_CUT), i)
-            })
-            .collect();
+        let mut own: Vec<(f32, usize)> =
+            chosen.iter().map(|&(_, i)| (own_arrival(strength(i).max(GROW_CUT), timing.onset[i]), i)).collect();
         own.sort_by(by);
         let span = own.len().max(2) as f32 - 1.0;
         // Depth inside the chosen region: a blotch grows from its middle out.
