@@ -6,13 +6,16 @@
 //!   summation (eq. 15), per 7-parameter degree-3 texel pair.
 //! - Fit: 512 x 512 x 50 time steps x 7 channels, degree 3.
 //! - Enlarge: a 128 x 128 degree-3 drying-wood material to 512 x 512.
+//! - Transfer (grow mode): a 128 x 128 rusting time-lapse, fitted at degree
+//!   3, onto a 512 x 512 texture.
 
 mod common;
 
 use common::peak_rss_mib;
 use patina::stbrdf::poly::{sampled_distance, PolyDistance};
 use patina::stbrdf::procedural::{drying_wood, drying_wood_at, drying_wood_params};
-use patina::stbrdf::{enlarge::enlarge, fit::fit};
+use patina::stbrdf::transfer::{transfer, TransferParams};
+use patina::stbrdf::{enlarge::enlarge, fit::fit, Param};
 use patina::synth::TexelDistance;
 use std::hint::black_box;
 use std::time::Instant;
@@ -61,6 +64,18 @@ fn main() {
         t.elapsed().as_secs_f64() * 1000.0,
         big.size().0,
         big.size().1
+    );
+
+    let frames = patina::samples::rusting_timelapse(128, 128, 21, 5);
+    let steps: Vec<f32> = (0..21).map(|i| i as f32 / 20.0).collect();
+    let rust = fit(&frames, &steps, 3, vec![Param { name: "Diffuse".into(), channels: 3 }]).expect("fit").material;
+    let target = patina::samples::cobbles(512, 512, 2);
+    let t = Instant::now();
+    let grown = transfer(&rust, &target, None, &TransferParams::default(), 1, None).expect("transfer");
+    println!(
+        "| transfer, grow mode, 128x128 rust -> 512x512 | {:.0} ms | degree {} result |",
+        t.elapsed().as_secs_f64() * 1000.0,
+        grown.material.degree
     );
     println!("\npeak memory: {:.0} MiB", peak_rss_mib());
 }
