@@ -416,3 +416,49 @@ fn damage_grows_along_the_grain_of_boards_and_evenly_on_plaster() {
     assert!(boards >= 1.25 * plaster, "damage spreads {boards:.2}x more along the boards than across, {plaster:.2}x on plaster");
     assert!((0.75..1.33).contains(&plaster), "on plaster the spread is {plaster:.2}x along x");
 }
+
+#[test]
+fn grown_damage_is_whole_material_not_pixel_speckle() {
+    // New damage must look like the input's damage at the pixel scale: its
+    // pixel-to-pixel roughness (mean |4-neighbour Laplacian| of luminance)
+    // near the input's, not a checkerboard of alternating sources.
+    let (img, mask) = rimmed_blooms(&samples::stucco(SIZE, SIZE, 5), [0.85, 0.45, 0.15]);
+    let age = mask.to_image();
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (0, 3);
+    let r = weather::weather(&img, &p, Overrides { age: Some(&age), ..Default::default() }, 7, &|_| {}).unwrap();
+    let last = &r.frames.last().unwrap().image;
+    let lum = |im: &Image, x: usize, y: usize| {
+        let q = im.pixel(x, y);
+        0.3 * q[0] + 0.59 * q[1] + 0.11 * q[2]
+    };
+    let laplacian = |im: &Image, x: usize, y: usize| {
+        (4.0 * lum(im, x, y) - lum(im, x - 1, y) - lum(im, x + 1, y) - lum(im, x, y - 1) - lum(im, x, y + 1)).abs()
+    };
+    let orange = |im: &Image, x: usize, y: usize| {
+        let q = im.pixel(x, y);
+        q[0] > 0.6 && q[2] < 0.35
+    };
+    let (mut new, mut old) = ((0.0f32, 0usize), (0.0f32, 0usize));
+    // Interiors only (3 px from any edge): edges are rough by nature.
+    let interior = mask.erode(3);
+    let grown = patina::image::Mask::from_fn(SIZE, SIZE, |x, y| orange(last, x, y)).erode(3);
+    let near_old = mask.dilate(3);
+    for y in 1..SIZE - 1 {
+        for x in 1..SIZE - 1 {
+            if interior.get(x, y) {
+                old = (old.0 + laplacian(&img, x, y), old.1 + 1);
+            } else if grown.get(x, y) && !near_old.get(x, y) {
+                new = (new.0 + laplacian(last, x, y), new.1 + 1);
+            }
+        }
+    }
+    assert!(new.1 > 200, "only {} new damaged pixels", new.1);
+    let (new, old) = (new.0 / new.1 as f32, old.0 / old.1 as f32);
+    eprintln!("roughness of new damage {new:.4}, of the input's {old:.4}");
+    assert!(
+        (0.6..=1.5).contains(&(new / old)),
+        "new damage is {:.2}x as rough as the input's damage (a smooth wash or a speckle)",
+        new / old
+    );
+}

@@ -16,22 +16,26 @@
 //! 2. Per future frame, the front advances to the arrival time that makes
 //!    the weathered area reach its target: the clean surface shrinks by
 //!    [`GROWTH_RATE`] of itself per unit of t.
-//! 3. Drawing: the guide is the signed distance to the damage's edge,
-//!    clamped to a band of half a patch, beside a wide blur of the input's
-//!    colour (where, at large scale, the material comes from). Source: the
-//!    input's damage; target: the grown damage. Every pixel whose clamped
-//!    distance moved by half the band since it was last drawn (the band
-//!    the front crossed, the old rim now inside, the clean pixels the
-//!    front now borders) is filled ([`Synthesis::fill`]) from the input,
-//!    then rebuilt from whole input patches of the damage and its halo
-//!    that follow the fill (the fill's vote alternates between sources
-//!    where the guide fights the content around it) and a softer edge
-//!    guide. Every other pixel keeps the previous frame exactly.
-//!    So the damage's rim moves with its front, as in the input; filling
-//!    only the crossed band by age (stop 24's version) left each old rim
-//!    as a ring inside the new damage.
+//! 3. Drawing, once for all frames ([`damage_layer`]): the guide is the
+//!    signed distance to the damage's edge, clamped to a band of half a
+//!    patch, beside a wide blur of the input's colour (where, at large
+//!    scale, the material comes from). Source: the input's damage; target:
+//!    the damage grown to the last frame. Per frame, every damaged pixel
+//!    whose clamped distance moved by half the band since it was last
+//!    drawn (the band the front crossed, the old rim now inside) is to be
+//!    re-drawn; the union of those pixels is filled ([`Synthesis::fill`])
+//!    from the input in one synthesis, inside coherent copies with the
+//!    matched patch's centre pixel (verbatim material) and the vote where
+//!    copies meet. Each frame takes its re-drawn pixels from that layer;
+//!    every other pixel keeps the previous frame exactly. So the damage's
+//!    rim moves with its front, as in the input (filling only the crossed
+//!    band by age, stop 24's version, left each old rim as a ring inside
+//!    the new damage), and new damage is one coherent synthesis that
+//!    continues the old. Stop 30's version filled and rebuilt thin bands
+//!    frame by frame; where the guide fought the content around a thin
+//!    band, its vote alternated sources pixel by pixel (checkerboard
+//!    specks) and drew contour scribbles.
 
-use super::rebuild::{rebuild_with, Engine};
 use super::sequence::{Frame, SequenceParams};
 use crate::error::{Error, Result};
 use crate::image::filter::{gaussian_blur, orientation, Orientation};
@@ -57,8 +61,6 @@ const STRUCTURE_SIGMA: f32 = 6.0;
 const EDGE_GUIDE: f32 = 3.0;
 /// Change of a pixel's clamped edge distance, in bands, that re-draws it.
 const REDRAW_STEP: f32 = 0.5;
-/// Weight of the guides in the rebuild of a fill, against the fill's.
-const REBUILD_EDGE: f32 = 0.3;
 /// Blur of the input's colour that tells where new material comes from, in patches.
 const CONTEXT_SIGMA: f32 = 2.0;
 /// Weight of that context against the edge guide.
@@ -171,70 +173,112 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
     // front instead of staying as a ring inside new damage.
     let band = edge_band(patch);
     let context = gaussian_blur(input, CONTEXT_SIGMA * patch as f32).map(|v| v * CONTEXT_GUIDE);
-    let source_edge = guide(&weathered, band, &context)?;
-    // The rebuild's edge guide, softer than the fill's: strong enough to
-    // keep the grown damage from reverting to clean material, weak enough
-    // not to fight the content around it.
-    let soft_source = source_edge.map(|v| v * REBUILD_EDGE);
-    let near_damage = weathered.dilate(band.round() as usize);
-    let mut previous = input.clone();
-    // Per pixel, the edge guide it was last drawn for.
-    let mut drawn = source_edge.select_channels(0..1);
+    // The front at each frame's time: the clean share weathered by t.
+    let fronts: Vec<(f32, f32)> = (1..=params.future)
+        .map(|k| {
+            let t = 1.0 + params.future_span * k as f32 / params.future as f32;
+            let share = 1.0 - (1.0 - GROWTH_RATE).powf(t - 1.0);
+            let front = if clean_times.is_empty() {
+                0.0
+            } else {
+                clean_times[((share * clean_times.len() as f32) as usize).min(clean_times.len() - 1)]
+            };
+            (t, front)
+        })
+        .collect();
+    let edge_of = |m: &Mask| -> Vec<f32> { m.signed_distance().iter().map(|d| (d / band).clamp(-1.0, 1.0)).collect() };
+    // Per frame, the damaged pixels to re-draw: those whose place relative
+    // to the edge moved by a visible step since they were last drawn (the
+    // band the front crossed, the old rim now inside). Only masks so far.
+    let mut drawn = edge_of(&weathered);
     let mut reached = weathered.clone();
-    let mut frames = Vec::with_capacity(params.future);
-    for k in 1..=params.future {
-        let t = 1.0 + params.future_span * k as f32 / params.future as f32;
-        // The clean share that has weathered by t.
-        let share = 1.0 - (1.0 - GROWTH_RATE).powf(t - 1.0);
-        let front = if clean_times.is_empty() {
-            0.0
-        } else {
-            clean_times[((share * clean_times.len() as f32) as usize).min(clean_times.len() - 1)]
-        };
-        reached = Mask::from_fn(w, h, |x, y| reached.get(x, y) || front >= arrival[y * w + x]);
-        let edge = guide(&reached, band, &context)?;
-        // Re-drawn: every pixel whose place relative to the edge moved by
-        // a visible step since it was last drawn (the band the front
-        // crossed, the old rim now inside, the new halo ahead of it).
-        let redraw = Mask::from_fn(w, h, |x, y| (edge.at(x, y, 0) - drawn.at(x, y, 0)).abs() > REDRAW_STEP * EDGE_GUIDE);
-        let current = if redraw.count() == 0 {
-            previous.clone()
-        } else {
-            // No uniformity penalty: the band may need rim material far more
-            // often than the input shows it.
-            let op = OptimizeParams { patch, levels: Some(3), search_vote_iters: 6, uniformity: 0.0, ..OptimizeParams::default() };
-            let filled = Synthesis::new(input)
-                .fill(&previous, &redraw)
-                .guides(&source_edge, &edge, params.rebuild.guide_weight)
-                .seed(rng::derive(seed, &[0xf2, k as u64]))
-                .optimize(&op)?
-                .image;
-            // Where the guide fights the surrounding content, the fill's
-            // vote alternates between sources pixel by pixel: rebuild it
-            // from whole input patches that follow it and the edge guide,
-            // made of the damage and its halo, and take the re-drawn
-            // pixels of that.
-            let filled = rebuild_with(
-                input,
-                &filled,
-                Some(&near_damage),
-                Some((&soft_source, &edge.map(|v| v * REBUILD_EDGE))),
-                Engine::Optimize,
-                &params.rebuild,
-                rng::derive(seed, &[0xf3, k as u64]),
-            )?;
-            blend_where(&previous, &filled, &redraw.to_image())
-        };
-        for (i, d) in drawn.data_mut().iter_mut().enumerate() {
-            if redraw.bits()[i] {
-                *d = edge.data()[i * edge.channels()];
+    let redraws: Vec<Mask> = fronts
+        .iter()
+        .map(|&(_, front)| {
+            reached = Mask::from_fn(w, h, |x, y| reached.get(x, y) || front >= arrival[y * w + x]);
+            let edge = edge_of(&reached);
+            let redraw = Mask::from_fn(w, h, |x, y| {
+                let i = y * w + x;
+                reached.get(x, y) && (edge[i] - drawn[i]).abs() > REDRAW_STEP
+            });
+            for (i, d) in drawn.iter_mut().enumerate() {
+                if redraw.bits()[i] {
+                    *d = edge[i];
+                }
             }
-        }
-        previous = current;
+            redraw
+        })
+        .collect();
+    let hole = Mask::from_fn(w, h, |x, y| redraws.iter().any(|r| r.get(x, y)));
+    let layer = damage_layer(input, &weathered, &reached, &hole, band, &context, params, seed)?;
+    let mut previous = input.clone();
+    let mut frames = Vec::with_capacity(params.future);
+    for (k, (&(t, _), redraw)) in fronts.iter().zip(&redraws).enumerate() {
+        previous = blend_where(&previous, &layer, &redraw.to_image());
         frames.push(Frame { t, image: previous.clone() });
-        progress(k);
+        progress(k + 1);
     }
     Ok(frames)
+}
+
+/// The grown damage drawn once, for the last frame: the pixels of
+/// `grown` not deep inside the input's damage are filled
+/// ([`Synthesis::fill`]) from the input, guided by the signed distance to
+/// the grown damage's edge (source: the input's damage edge) and by the
+/// wide blur of the input's colour (where the material comes from). Every
+/// frame takes its newly damaged pixels from this layer, so new damage is
+/// one coherent synthesis that continues the old, the same in every frame.
+#[allow(clippy::too_many_arguments)]
+fn damage_layer(
+    input: &Image,
+    weathered: &Mask,
+    grown: &Mask,
+    hole: &Mask,
+    band: f32,
+    context: &Image,
+    params: &SequenceParams,
+    seed: u64,
+) -> Result<Image> {
+    let (w, h) = input.size();
+    let patch = params.rebuild.patch;
+    if hole.count() == 0 {
+        return Ok(input.clone());
+    }
+    let source_edge = guide(weathered, band, context)?;
+    let target_edge = guide(grown, band, context)?;
+    let op = OptimizeParams { patch, levels: Some(3), search_vote_iters: 6, uniformity: 0.0, ..OptimizeParams::default() };
+    let filled = Synthesis::new(input)
+        .fill(input, hole)
+        .guides(&source_edge, &target_edge, params.rebuild.guide_weight)
+        .seed(rng::derive(seed, &[0xf2]))
+        .optimize(&op)?;
+    // Inside a coherent copy (the pixel's match continues at least two of
+    // its four neighbours'), a hole pixel is its match's centre, not the
+    // mean of the overlapping patches' votes: the vote averages candidates
+    // that disagree into a smooth wash (grown interiors had a third of the
+    // input damage's pixel-scale detail). Where copies meet, the vote
+    // stays and hides the seam.
+    let n = input.channels();
+    let nnf = &filled.nnf;
+    let offset = |x: usize, y: usize| {
+        let m = nnf.get(x, y);
+        (m.x as i64 - x as i64, m.y as i64 - y as i64)
+    };
+    let mut out = filled.image;
+    for y in 1..h.saturating_sub(1) {
+        for x in 1..w.saturating_sub(1) {
+            if !hole.get(x, y) {
+                continue;
+            }
+            let o = offset(x, y);
+            let agree = [(x - 1, y), (x + 1, y), (x, y - 1), (x, y + 1)].iter().filter(|&&(u, v)| offset(u, v) == o).count();
+            if agree >= 2 {
+                let m = nnf.get(x, y);
+                out.pixel_mut(x, y).copy_from_slice(&input.pixel(m.x as usize, m.y as usize)[..n]);
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// Half-width, in pixels, of the band around the damage's edge whose look
