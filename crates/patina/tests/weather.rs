@@ -462,3 +462,35 @@ fn grown_damage_is_whole_material_not_pixel_speckle() {
         new / old
     );
 }
+
+#[test]
+fn past_frames_reveal_each_damage_from_its_core_not_its_rim_first() {
+    // Blooms whose rim is older than their interior (as real age maps of
+    // rust blooms have it): by age alone the rims came first and half-way
+    // frames showed rings of damage around intact middles.
+    let base = samples::stucco(SIZE, SIZE, 5);
+    let (img, mask) = rimmed_blooms(&base, [0.85, 0.45, 0.15]);
+    let inside = mask.distance_inside();
+    let age = Image::from_fn(SIZE, SIZE, 1, |x, y, p| {
+        let d = inside[y * SIZE + x];
+        p[0] = if d <= 0.0 {
+            0.0
+        } else if d <= 3.0 {
+            1.0
+        } else {
+            0.6
+        }
+    });
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (3, 0);
+    let r = weather::weather(&img, &p, Overrides { age: Some(&age), intact: Some(&base), ..Default::default() }, 7, &|_| {}).unwrap();
+    let half = &r.frames[2].image;
+    assert!((r.frames[2].t - 0.5).abs() < 1e-6);
+    let d = colour_distance(half, &base).unwrap();
+    let revealed: Vec<usize> = (0..SIZE * SIZE).filter(|&i| mask.bits()[i] && d[i] > 0.1).collect();
+    let on_rim = revealed.iter().filter(|&&i| inside[i] <= 3.0).count() as f32 / revealed.len().max(1) as f32;
+    let rim_share = (0..SIZE * SIZE).filter(|&i| mask.bits()[i] && inside[i] <= 3.0).count() as f32 / mask.count() as f32;
+    eprintln!("half-way: {} damage pixels shown, {:.2} of them on the rim (rim is {rim_share:.2} of the damage)", revealed.len(), on_rim);
+    assert!(revealed.len() as f32 > 0.2 * mask.count() as f32, "half-way shows {} of {} damage pixels", revealed.len(), mask.count());
+    assert!(on_rim < rim_share, "half-way, {:.0}% of the shown damage is rim (the rim is {:.0}% of it)", 100.0 * on_rim, 100.0 * rim_share);
+}

@@ -32,7 +32,7 @@ use super::rebuild::{colour_distance, delta_scale, pixel_distance, rebuild, Engi
 use crate::error::{Error, Result};
 use crate::image::filter::{gaussian_blur, gradients};
 use crate::image::summed::SummedArea;
-use crate::image::Image;
+use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};
 use serde::{Deserialize, Serialize};
 
@@ -131,10 +131,10 @@ pub const REVEAL_EDGE: f32 = 0.08;
 
 /// Frames for t in (0, 1), oldest last, given the input, its intact
 /// texture and its age map. Each pixel that differs between them turns
-/// from intact to input at its onset time 1 - q (q: its age's rank among
-/// those pixels, see [`change_ranks`]) over [`REVEAL_EDGE`]: the most aged
-/// cores first, then outwards along the age map's contours, the weathered
-/// area growing evenly in t. Frames are blends of the two real images
+/// from intact to input at its onset time 1 - q (q: its reveal rank among
+/// those pixels, see [`change_ranks`]) over [`REVEAL_EDGE`]: the deepest,
+/// most aged cores first, then outwards to each damage's edge, the
+/// weathered area growing evenly in t. Frames are blends of the two real images
 /// pixel by pixel, never mixed within a pixel except on that narrow edge,
 /// so no rebuild is needed (the paper rebuilds its cross-faded templates;
 /// here that only added noise and a jump at t = 1).
@@ -159,18 +159,40 @@ pub fn past(input: &Image, intact: &Image, age: &Image, params: &SequenceParams,
     Ok(frames)
 }
 
-/// Per pixel, its age's rank in (0, 1] among the pixels where the input
+/// Share of a changed pixel's reveal order that its depth inside the
+/// changed region sets (the rest is its age's rank).
+const REVEAL_FROM_CORE: f32 = 0.5;
+/// Depth (px) beyond which a pixel counts as a damage's core.
+const CORE_DEPTH: f32 = 6.0;
+
+/// Per pixel, its reveal rank in (0, 1] among the pixels where the input
 /// differs from the intact texture (0 elsewhere): uniform, so thresholds
-/// on it pace the past frames evenly by area.
+/// on it pace the past frames evenly by area. The order is half the age's
+/// rank and half the depth inside the changed region (up to
+/// [`CORE_DEPTH`]), so each damage is revealed from its core outwards.
+/// By age alone, age maps whose rims are older than their interiors
+/// (rust blooms) revealed rims first: rings of intact material showed
+/// inside half-revealed damage.
 fn change_ranks(input: &Image, intact: &Image, age: &Image) -> Result<Image> {
     let d = colour_distance(input, intact)?;
     // A lightly smoothed age orders whole regions, not speckle.
     let smooth = gaussian_blur(age, 1.5);
+    let changed_mask = Mask::from_fn(input.width(), input.height(), |x, y| d[y * input.width() + x] > CHANGED);
+    let depth = changed_mask.distance_inside();
     let mut changed: Vec<(f32, usize)> = d.iter().enumerate().filter(|(_, &v)| v > CHANGED).map(|(i, _)| (smooth.data()[i], i)).collect();
     changed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    let mut rank = vec![0f32; d.len()];
     let n = changed.len().max(1) as f32;
-    for (k, (_, i)) in changed.iter().enumerate() {
+    let mut keyed: Vec<(f32, usize)> = changed
+        .iter()
+        .enumerate()
+        .map(|(k, &(_, i))| {
+            let age_rank = (k + 1) as f32 / n;
+            (age_rank * (1.0 - REVEAL_FROM_CORE) + REVEAL_FROM_CORE * (depth[i] / CORE_DEPTH).min(1.0), i)
+        })
+        .collect();
+    keyed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut rank = vec![0f32; d.len()];
+    for (k, (_, i)) in keyed.iter().enumerate() {
         rank[*i] = (k + 1) as f32 / n;
     }
     Image::from_data(input.width(), input.height(), 1, rank)
