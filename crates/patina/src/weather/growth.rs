@@ -55,6 +55,8 @@ pub const NUCLEATION_DENSITY: f32 = 0.25;
 pub const ANISOTROPY: f32 = 4.0;
 /// Blur (px) of the arrival times.
 const FRONT_SMOOTHING: f32 = 1.5;
+/// Blur (px) of the grown damage's outline before it is thresholded.
+const OUTLINE_SMOOTHING: f32 = 2.0;
 /// Scale (px) over which the structure's orientation is averaged.
 const STRUCTURE_SIGMA: f32 = 6.0;
 /// Weight of the edge guide channel against the appearance features.
@@ -195,12 +197,24 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
     let redraws: Vec<Mask> = fronts
         .iter()
         .map(|&(_, front)| {
-            reached = Mask::from_fn(w, h, |x, y| reached.get(x, y) || front >= arrival[y * w + x]);
+            // The front's outline, smoothed: the arrival times' level set
+            // on the pixel grid has 1 px ticks, hatching and stair-steps
+            // (the 8-neighbour steps); a blur of the reached pixels,
+            // thresholded at a half, keeps its shape without them (and
+            // stays monotone in t, as blur and threshold both are).
+            let raw = Image::from_fn(w, h, 1, |x, y, p| p[0] = if front >= arrival[y * w + x] { 1.0 } else { 0.0 });
+            let smooth = gaussian_blur(&raw, OUTLINE_SMOOTHING);
+            reached = Mask::from_fn(w, h, |x, y| reached.get(x, y) || smooth.at(x, y, 0) >= 0.5);
             let edge = edge_of(&reached);
+            // Slivers under 3 px wide are not re-drawn: drawn beside the
+            // previous frame's pixels, they showed as flecks along cracks
+            // and edges. They join a later, wider re-draw or keep the input.
             let redraw = Mask::from_fn(w, h, |x, y| {
                 let i = y * w + x;
                 reached.get(x, y) && (edge[i] - drawn[i]).abs() > REDRAW_STEP
-            });
+            })
+            .erode(1)
+            .dilate(1);
             for (i, d) in drawn.iter_mut().enumerate() {
                 if redraw.bits()[i] {
                     *d = edge[i];
