@@ -494,3 +494,26 @@ fn past_frames_reveal_each_damage_from_its_core_not_its_rim_first() {
     assert!(revealed.len() as f32 > 0.2 * mask.count() as f32, "half-way shows {} of {} damage pixels", revealed.len(), mask.count());
     assert!(on_rim < rim_share, "half-way, {:.0}% of the shown damage is rim (the rim is {:.0}% of it)", 100.0 * on_rim, 100.0 * rim_share);
 }
+
+#[test]
+fn past_frames_pace_the_change_not_the_changed_pixels() {
+    // An intact texture that differs slightly everywhere (as rebuilt ones
+    // do) and strongly on four blooms: by changed-pixel count the faint
+    // pixels ranked last and the first step brought most of the visible
+    // change.
+    let base = samples::stucco(SIZE, SIZE, 5);
+    let (img, mask) = rimmed_blooms(&base, [0.85, 0.45, 0.15]);
+    let intact = Image::from_fn(SIZE, SIZE, 3, |x, y, p| {
+        for c in 0..3 {
+            p[c] = base.at(x, y, c) + if (x + y) % 2 == 0 { 0.03 } else { -0.03 };
+        }
+    });
+    let age = mask.to_image();
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (3, 0);
+    let r = weather::weather(&img, &p, Overrides { age: Some(&age), intact: Some(&intact), ..Default::default() }, 7, &|_| {}).unwrap();
+    let frames: Vec<&Image> = r.frames.iter().map(|f| &f.image).collect();
+    let pace = pacing(&frames).unwrap();
+    eprintln!("largest step: {pace:.2} of the change");
+    assert!(pace <= 0.35, "one step brings {:.0}% of the intact -> input change", 100.0 * pace);
+}
