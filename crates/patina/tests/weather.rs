@@ -504,8 +504,9 @@ fn past_frames_pace_the_change_not_the_changed_pixels() {
     let base = samples::stucco(SIZE, SIZE, 5);
     let (img, mask) = rimmed_blooms(&base, [0.85, 0.45, 0.15]);
     let intact = Image::from_fn(SIZE, SIZE, 3, |x, y, p| {
-        for c in 0..3 {
-            p[c] = base.at(x, y, c) + if (x + y) % 2 == 0 { 0.03 } else { -0.03 };
+        let faint = if (x + y) % 2 == 0 { 0.03 } else { -0.03 };
+        for (c, v) in p.iter_mut().enumerate() {
+            *v = base.at(x, y, c) + faint;
         }
     });
     let age = mask.to_image();
