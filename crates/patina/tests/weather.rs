@@ -349,22 +349,28 @@ fn rimmed_blooms(base: &Image, colour: [f32; 3]) -> (Image, patina::image::Mask)
     (img, patina::image::Mask::from_fn(size, size, |x, y| dist(x, y) < 0.0))
 }
 
-#[test]
-fn growing_damage_carries_its_rim_with_the_front_instead_of_leaving_rings() {
-    let (img, mask) = rimmed_blooms(&samples::stucco(SIZE, SIZE, 5), [0.85, 0.45, 0.15]);
+/// The last of 3 future frames (t = 2) of `img` grown from `mask` as its age map.
+fn grown_to_t2(img: &Image, mask: &patina::image::Mask, seed: u64) -> Image {
     let age = mask.to_image();
     let mut p = WeatherParams::default();
     (p.sequence.past, p.sequence.future) = (0, 3);
-    let r = weather::weather(&img, &p, Overrides { age: Some(&age), ..Default::default() }, 7, &|_| {}).unwrap();
-    let last = &r.frames.last().unwrap().image;
+    let r = weather::weather(img, &p, Overrides { age: Some(&age), ..Default::default() }, seed, &|_| {}).unwrap();
+    r.frames.last().unwrap().image.clone()
+}
+
+/// The orange of [`rimmed_blooms`]' interiors (the plaster is never orange).
+fn orange(q: &[f32]) -> bool {
+    q[0] > 0.6 && q[2] < 0.35
+}
+
+#[test]
+fn growing_damage_carries_its_rim_with_the_front_instead_of_leaving_rings() {
+    let (img, mask) = rimmed_blooms(&samples::stucco(SIZE, SIZE, 5), [0.85, 0.45, 0.15]);
+    let last = &grown_to_t2(&img, &mask, 7);
     // (The plaster is never orange and has 5 pixels this dark.)
     let dark = |im: &Image, x: usize, y: usize| im.pixel(x, y).iter().take(3).all(|&v| v < 0.3);
-    let orange = |im: &Image, x: usize, y: usize| {
-        let q = im.pixel(x, y);
-        q[0] > 0.6 && q[2] < 0.35
-    };
     // The damage at t = 2: orange or dark. It has grown.
-    let damage = patina::image::Mask::from_fn(SIZE, SIZE, |x, y| orange(last, x, y) || dark(last, x, y)).dilate(1).erode(1);
+    let damage = patina::image::Mask::from_fn(SIZE, SIZE, |x, y| orange(last.pixel(x, y)) || dark(last, x, y)).dilate(1).erode(1);
     assert!(damage.count() as f32 >= 1.3 * mask.count() as f32, "damage {} vs {} at t = 1", damage.count(), mask.count());
     // Old rims now deep inside the damage: dark pixels more than 5 px from
     // its edge, against the rim pixels the input had.
@@ -385,11 +391,7 @@ fn damage_grows_along_the_grain_of_boards_and_evenly_on_plaster() {
     // damage's spread from each bloom's centre, along x over along y.
     let spread = |base: &Image| {
         let (img, mask) = rimmed_blooms(base, [0.2, 0.45, 0.85]);
-        let age = mask.to_image();
-        let mut p = WeatherParams::default();
-        (p.sequence.past, p.sequence.future) = (0, 3);
-        let r = weather::weather(&img, &p, Overrides { age: Some(&age), ..Default::default() }, 3, &|_| {}).unwrap();
-        let last = &r.frames.last().unwrap().image;
+        let last = &grown_to_t2(&img, &mask, 3);
         let (mut sx, mut sy) = (0.0f32, 0.0f32);
         for y in 0..SIZE {
             for x in 0..SIZE {
@@ -423,11 +425,7 @@ fn grown_damage_is_whole_material_not_pixel_speckle() {
     // pixel-to-pixel roughness (mean |4-neighbour Laplacian| of luminance)
     // near the input's, not a checkerboard of alternating sources.
     let (img, mask) = rimmed_blooms(&samples::stucco(SIZE, SIZE, 5), [0.85, 0.45, 0.15]);
-    let age = mask.to_image();
-    let mut p = WeatherParams::default();
-    (p.sequence.past, p.sequence.future) = (0, 3);
-    let r = weather::weather(&img, &p, Overrides { age: Some(&age), ..Default::default() }, 7, &|_| {}).unwrap();
-    let last = &r.frames.last().unwrap().image;
+    let last = &grown_to_t2(&img, &mask, 7);
     let lum = |im: &Image, x: usize, y: usize| {
         let q = im.pixel(x, y);
         0.3 * q[0] + 0.59 * q[1] + 0.11 * q[2]
@@ -435,14 +433,10 @@ fn grown_damage_is_whole_material_not_pixel_speckle() {
     let laplacian = |im: &Image, x: usize, y: usize| {
         (4.0 * lum(im, x, y) - lum(im, x - 1, y) - lum(im, x + 1, y) - lum(im, x, y - 1) - lum(im, x, y + 1)).abs()
     };
-    let orange = |im: &Image, x: usize, y: usize| {
-        let q = im.pixel(x, y);
-        q[0] > 0.6 && q[2] < 0.35
-    };
     let (mut new, mut old) = ((0.0f32, 0usize), (0.0f32, 0usize));
     // Interiors only (3 px from any edge): edges are rough by nature.
     let interior = mask.erode(3);
-    let grown = patina::image::Mask::from_fn(SIZE, SIZE, |x, y| orange(last, x, y)).erode(3);
+    let grown = patina::image::Mask::from_fn(SIZE, SIZE, |x, y| orange(last.pixel(x, y))).erode(3);
     let near_old = mask.dilate(3);
     for y in 1..SIZE - 1 {
         for x in 1..SIZE - 1 {

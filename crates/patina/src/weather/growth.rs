@@ -235,13 +235,13 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
     Ok(frames)
 }
 
-/// The grown damage drawn once, for the last frame: the pixels of
-/// `grown` not deep inside the input's damage are filled
-/// ([`Synthesis::fill`]) from the input, guided by the signed distance to
-/// the grown damage's edge (source: the input's damage edge) and by the
+/// The grown damage drawn once, for the last frame: the pixels of `hole`
+/// (every pixel some frame re-draws) are filled ([`Synthesis::fill`])
+/// from the input, guided by the signed distance to the edge of `grown`,
+/// the last frame's damage (source: the input's damage edge), and by the
 /// wide blur of the input's colour (where the material comes from). Every
-/// frame takes its newly damaged pixels from this layer, so new damage is
-/// one coherent synthesis that continues the old, the same in every frame.
+/// frame takes its re-drawn pixels from this layer, so new damage is one
+/// coherent synthesis that continues the old, the same in every frame.
 #[allow(clippy::too_many_arguments)]
 fn damage_layer(
     input: &Image,

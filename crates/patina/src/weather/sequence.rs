@@ -134,7 +134,7 @@ pub const REVEAL_EDGE: f32 = 0.08;
 /// from intact to input at its onset time 1 - q (q: its reveal rank among
 /// those pixels, see [`change_ranks`]) over [`REVEAL_EDGE`]: the deepest,
 /// most aged cores first, then outwards to each damage's edge, the
-/// weathered area growing evenly in t. Frames are blends of the two real images
+/// change growing evenly in t. Frames are blends of the two real images
 /// pixel by pixel, never mixed within a pixel except on that narrow edge,
 /// so no rebuild is needed (the paper rebuilds its cross-faded templates;
 /// here that only added noise and a jump at t = 1).
@@ -168,9 +168,9 @@ const CORE_DEPTH: f32 = 6.0;
 /// Per pixel, its reveal rank in (0, 1] among the pixels where the input
 /// differs from the intact texture (0 elsewhere), as the share of the
 /// change revealed by then: thresholds on it pace the past frames evenly
-/// by change. The order is half the age's
-/// rank and half the depth inside the changed region (up to
-/// [`CORE_DEPTH`]), so each damage is revealed from its core outwards.
+/// by change. The order is half the age's rank and half the depth inside
+/// the changed region (up to [`CORE_DEPTH`]), so each damage is revealed
+/// from its core outwards.
 /// By age alone, age maps whose rims are older than their interiors
 /// (rust blooms) revealed rims first: rings of intact material showed
 /// inside half-revealed damage.
@@ -180,7 +180,8 @@ fn change_ranks(input: &Image, intact: &Image, age: &Image) -> Result<Image> {
     let smooth = gaussian_blur(age, 1.5);
     let changed_mask = Mask::from_fn(input.width(), input.height(), |x, y| d[y * input.width() + x] > CHANGED);
     let depth = changed_mask.distance_inside();
-    let mut changed: Vec<(f32, usize)> = d.iter().enumerate().filter(|(_, &v)| v > CHANGED).map(|(i, _)| (smooth.data()[i], i)).collect();
+    let mut changed: Vec<(f32, usize)> =
+        changed_mask.bits().iter().enumerate().filter(|(_, &b)| b).map(|(i, _)| (smooth.data()[i], i)).collect();
     changed.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let n = changed.len().max(1) as f32;
     let mut keyed: Vec<(f32, usize)> = changed
