@@ -130,6 +130,9 @@ pub struct Args {
     /// Reuse penalty: a candidate block's cost grows by this factor per block already taken from around the same exemplar spot (quilt; 0 = off, as in the paper).
     #[arg(long, default_value_t = QuiltParams::default().reuse, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub reuse: f32,
+    /// Rare-feature penalty: a candidate block holding a distinctive feature (one with no near twin elsewhere in the exemplar, like a knot or a chip) costs more for every time that feature was already pasted, in proportion to how distinctive it is, so it is not stamped across the output (quilt, and optimize's quilt start; 0 = off).
+    #[arg(long, default_value_t = QuiltParams::default().rarity, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    pub rarity: f32,
     /// Blend blocks linearly across the overlap instead of cutting along the minimum-error seam (quilt).
     #[arg(long)]
     pub no_cut: bool,
@@ -181,6 +184,7 @@ impl Args {
             },
             stop_threshold: self.stop_threshold,
             lattice: !self.no_lattice,
+            rarity: self.rarity,
         }
     }
 
@@ -194,6 +198,7 @@ impl Args {
             feather: self.feather,
             transfer_passes: self.transfer_passes,
             reuse: self.reuse,
+            rarity: self.rarity,
             blend: !self.no_blend,
             lattice: !self.no_lattice,
         }

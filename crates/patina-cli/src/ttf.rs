@@ -63,6 +63,9 @@ pub struct Args {
     /// Reuse penalty: a block's cost grows by this factor for every block already taken from around the same input spot (0 = off, the paper); fewer repeated features, at the price of more events per area.
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub reuse: f32,
+    /// Rare-feature penalty: a block holding a distinctive event or feature (no near twin elsewhere in the input) costs more for every time it was already pasted, in proportion to how distinctive it is (0 = off, the paper; off by default: on a rust test sequence it made calm steel repeat more).
+    #[arg(long, default_value_t = ttf::RARITY, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    pub rarity: f32,
     /// Sum the block cost over frames as they are (the paper's eq. 3). By default each frame is weighted by the inverse of its fine-detail contrast, so smooth early frames get seams as clean as busy late ones.
     #[arg(long)]
     pub no_balance: bool,
@@ -225,6 +228,7 @@ pub fn run(args: Args) -> Result<()> {
             feather: args.feather,
             blend: !args.no_blend,
             reuse: args.reuse,
+            rarity: args.rarity,
             ..TtfParams::default().quilt
         },
         jitter: args.jitter,

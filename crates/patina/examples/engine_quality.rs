@@ -12,7 +12,8 @@
 //! `--flat` synthesizes with flat re-lighting;
 //! `--levels N`, `--iters K`, `--patch P`, `--uniformity U` and `--robust`
 //! (robust voting) override the optimizer's defaults, `--no-lattice`
-//! turns off keeping regular structure in phase, `--seed S` (default 3)
+//! turns off keeping regular structure in phase, `--rarity R` sets the
+//! rare-feature reuse penalty, `--seed S` (default 3)
 //! seeds the run and `--only NAME` runs one exemplar.
 
 mod common;
@@ -24,12 +25,14 @@ use patina::Image;
 use std::path::Path;
 use std::time::Instant;
 
-const SET: [(&str, &str); 8] = [
+const SET: [(&str, &str); 10] = [
     ("clean/brick_wall_old_texture.jpg", "bricks"),
     ("clean/skimage_brick_wall_gray.png", "bricks_gray"),
     ("weathered/stained_green_circle_tiles.jpg", "circle_tiles"),
     ("weathered/tile_spalling_brick_facade.png", "tile_facade"),
     ("weathered/weathered_wood_planks_knots.jpg", "planks"),
+    ("weathered/lichen_on_roof_tiles.jpg", "roof_tiles"),
+    ("weathered/peeling_damask_wallpaper.jpg", "damask"),
     ("weathered/cracked_paint_plaster.jpg", "cracked_paint"),
     ("clean/concrete_walls.jpg", "concrete"),
     ("clean/skimage_gravel_gray.png", "gravel"),
@@ -61,13 +64,16 @@ fn main() {
         optimize.vote = patina::synth::VoteWeights::Robust;
     }
     let seed = flag("--seed").unwrap_or(3) as u64;
-    let quilt = QuiltParams { lattice: !args.iter().any(|a| a == "--no-lattice"), ..QuiltParams::default() };
+    let mut quilt = QuiltParams { lattice: !args.iter().any(|a| a == "--no-lattice"), ..QuiltParams::default() };
+    if let Some(r) = args.iter().position(|a| a == "--rarity").and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<f32>().ok()) {
+        quilt.rarity = r;
+    }
     optimize.lattice = quilt.lattice;
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).cloned();
     let out_dir = args.first().filter(|a| !a.starts_with("--")).cloned().unwrap_or_else(|| "/tmp/patina-engine".into());
     std::fs::create_dir_all(&out_dir).expect("output folder");
-    println!("| exemplar | method | time (ms) | coherence / self | completeness / self | grid peak / exemplar's | non-stationarity (exemplar) | repeated share |");
-    println!("|---|---|---:|---:|---:|---:|---:|---:|");
+    println!("| exemplar | method | time (ms) | coherence / self | completeness / self | grid peak / exemplar's | non-stationarity (exemplar) | repeated share | rare use |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
     for (file, name) in SET {
         if only.as_deref().is_some_and(|o| o != name) {
             continue;
@@ -93,8 +99,9 @@ fn main() {
             let ms = t.elapsed().as_secs_f64() * 1000.0;
             let b = metrics::bidirectional(&out, &ex, 5, 1).expect("bidirectional");
             let rep = metrics::repeated_share(&out, 9, 16, 1).expect("repeats");
+            let rare = metrics::rare_feature_use(&out, &ex, 9, 16, 1).expect("rare use");
             println!(
-                "| {name} | {method} | {ms:.0} | {:.2} | {:.2} | {:.2} | {:.3} ({:.3}) | {:.3} |",
+                "| {name} | {method} | {ms:.0} | {:.2} | {:.2} | {:.2} | {:.3} ({:.3}) | {:.3} | {rare:.2} |",
                 b.coherence / own,
                 b.completeness / own,
                 metrics::grid_peak(&out) / grid0,

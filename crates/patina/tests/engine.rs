@@ -232,32 +232,47 @@ fn red_copies(img: &Image, disc_area: f32) -> f32 {
 }
 
 #[test]
-fn one_distinctive_feature_is_not_stamped_beyond_its_share() {
+fn one_distinctive_feature_is_copied_less_than_its_share() {
     // One red disc on a stochastic ground; a 2x enlargement has 4x the
-    // area, so about 4 discs is its fair share.
+    // area, so about 4 discs is its share if every part of the exemplar
+    // were used alike. A one-off feature repeated that often reads as a
+    // stamp; the rarity bound keeps it to about one or two, and its
+    // first-use bonus keeps it from being dropped.
     let ground = samples::blotches(96, 96, 7);
     let ex = Image::from_fn(96, 96, 3, |x, y, p| {
         let d = ((x as f32 - 40.0).powi(2) + (y as f32 - 52.0).powi(2)).sqrt();
-        if d < 6.0 {
+        if d < 8.0 {
             p.copy_from_slice(&[0.95, 0.1, 0.1]);
         } else {
             p.copy_from_slice(ground.pixel(x, y));
         }
     });
     let area = red_copies(&ex, 1.0);
-    let (mut bounded, mut free_total) = (0.0, 0.0);
-    for seed in 0..3 {
-        let quilt = Synthesis::new(&ex).size(192, 192).seed(seed).quilt(&QuiltParams::default()).unwrap().image;
+    let (mut bounded, mut common, mut free_total, mut optimized_total) = (0.0, 0.0, 0.0, 0.0);
+    for seed in 0..4 {
+        let run = |p: &QuiltParams| red_copies(&Synthesis::new(&ex).size(192, 192).seed(seed).quilt(p).unwrap().image, area);
+        let q = run(&QuiltParams::default());
+        let c = run(&QuiltParams { rarity: 0.0, ..QuiltParams::default() });
+        let u = run(&QuiltParams { rarity: 0.0, reuse: 0.0, ..QuiltParams::default() });
         let optimized = Synthesis::new(&ex).size(192, 192).seed(seed).optimize(&OptimizeParams::default()).unwrap().image;
-        let free = QuiltParams { reuse: 0.0, ..QuiltParams::default() };
-        let unbounded = Synthesis::new(&ex).size(192, 192).seed(seed).quilt(&free).unwrap().image;
-        let (q, o, u) = (red_copies(&quilt, area), red_copies(&optimized, area), red_copies(&unbounded, area));
-        eprintln!("seed {seed}: disc copies quilt {q:.1}, optimize {o:.1}, without the reuse bound {u:.1}");
-        assert!(q <= 6.0 && o <= 6.0, "seed {seed}: quilt {q:.1}, optimize {o:.1} copies of one disc (fair share 4)");
+        let o = red_copies(&optimized, area);
+        eprintln!(
+            "seed {seed}: disc copies quilt {q:.1}, optimize {o:.1}, without the rarity bound {c:.1}, without any reuse bound {u:.1}"
+        );
+        assert!((0.75..=2.5).contains(&q), "seed {seed}: the quilt has {q:.1} copies of one disc");
         bounded += q;
+        optimized_total += o;
+        common += c;
         free_total += u;
     }
-    assert!(bounded < free_total, "the reuse bound does not lower the copies: {bounded:.1} vs {free_total:.1} over 3 seeds");
+    // Measured over seeds 0-3: quilt 1.1-2.1 copies, optimize 1.0-3.0
+    // (its seam healing copies parts of the disc), without the rarity
+    // bound 2.9-4.0.
+    assert!(bounded <= 8.0 && optimized_total <= 10.0, "copies over 4 seeds: quilt {bounded:.1}, optimize {optimized_total:.1}");
+    assert!(
+        bounded < common && common < free_total,
+        "copies over 4 seeds: {bounded:.1} with the bounds, {common:.1} without the rarity bound, {free_total:.1} without any"
+    );
 }
 
 /// `img` shifted by half its size with wrap-around, so that its tile edges

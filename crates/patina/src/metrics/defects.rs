@@ -117,10 +117,67 @@ pub fn repeated_share(img: &Image, patch: usize, min_offset: usize, seed: u64) -
 /// Luminance std below which a patch counts as flat (not a feature).
 const MIN_TEXTURE_STD: f32 = 0.04;
 
+/// Share of the exemplar's pixels counted as its rare features by
+/// [`rare_feature_use`].
+const RARE_SHARE: f32 = 0.05;
+
+/// Stamps: how often the exemplar's rarest features are copied, relative to
+/// how often its material is on average. Every output pixel is matched to
+/// its nearest exemplar patch (side `patch`); an exemplar pixel's use is the
+/// number of output pixels matched within a few pixels of it. The result is
+/// the mean use of the rarest [`RARE_SHARE`] of the exemplar (by
+/// [`crate::synth::rarity`], on neighbourhoods `feature` pixels wide) over
+/// the mean use of all of it. 1 = rare features as frequent as anything
+/// else (an enlargement shows each knot as often as the plain grain: a
+/// stamp), below 1 = used sparingly, 0 = never copied.
+pub fn rare_feature_use(output: &Image, exemplar: &Image, patch: usize, feature: usize, seed: u64) -> Result<f32> {
+    let (nnf, inside) = nearest(output, exemplar, patch, None, seed)?;
+    let (ew, eh) = exemplar.size();
+    let mut uses = Image::new(ew, eh, 1);
+    for y in 0..output.height() {
+        for x in 0..output.width() {
+            if inside.get(x, y) {
+                let m = nnf.get(x, y);
+                uses.pixel_mut(m.x as usize, m.y as usize)[0] += 1.0;
+            }
+        }
+    }
+    let uses = gaussian_blur(&uses, (patch / 2).max(1) as f32);
+    let weights = vec![1.0 / exemplar.channels() as f32; exemplar.channels()];
+    let rarity = crate::synth::rarity::rarity(exemplar, &weights, feature, seed)?;
+    let mut order: Vec<usize> = (0..ew * eh).collect();
+    order.sort_by(|&a, &b| rarity.at(b % ew, b / ew, 0).total_cmp(&rarity.at(a % ew, a / ew, 0)).then(a.cmp(&b)));
+    let rare = ((ew * eh) as f32 * RARE_SHARE).ceil() as usize;
+    let mean = |ids: &[usize]| ids.iter().map(|&i| uses.at(i % ew, i / ew, 0) as f64).sum::<f64>() / ids.len().max(1) as f64;
+    let all = mean(&order);
+    Ok(if all > 0.0 { (mean(&order[..rare]) / all) as f32 } else { 0.0 })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::samples;
+
+    #[test]
+    fn a_stamped_feature_is_told_from_a_sparing_one() {
+        // Blotches with one red disc; outputs 2x its side made of the
+        // exemplar tiled 2 x 2 (the disc 4 times: its share) and of the
+        // same with every disc painted out (never copied).
+        let ground = samples::blotches(96, 96, 7);
+        let disc = |x: usize, y: usize| (x as f32 - 40.0).hypot(y as f32 - 52.0) < 8.0;
+        let ex = Image::from_fn(96, 96, 3, |x, y, p| {
+            p.copy_from_slice(if disc(x, y) { &[0.95, 0.1, 0.1] } else { ground.pixel(x, y) });
+        });
+        let tiled = Image::from_fn(192, 192, 3, |x, y, p| p.copy_from_slice(ex.pixel(x % 96, y % 96)));
+        let painted = Image::from_fn(192, 192, 3, |x, y, p| {
+            p.copy_from_slice(if disc(x % 96, y % 96) { ground.pixel(x % 96, (y + 40) % 96) } else { ex.pixel(x % 96, y % 96) });
+        });
+        let share = rare_feature_use(&tiled, &ex, 9, 16, 1).unwrap();
+        let never = rare_feature_use(&painted, &ex, 9, 16, 1).unwrap();
+        assert!((0.7..=1.3).contains(&share), "tiled: {share}");
+        eprintln!("rare use: tiled {share:.2}, disc painted out {never:.2}");
+        assert!(never < 0.6 * share, "disc painted out: {never}, tiled {share}");
+    }
 
     #[test]
     fn a_pasted_grid_and_a_vignette_and_repeated_stamps_are_measured() {

@@ -352,8 +352,12 @@ mod tests {
         assert!(g <= 1.5 * g0, "grid peak {g} vs the exemplar's {g0}");
         let (a, b) = (mean(&luminance(&flat)), mean(&luminance(&ex)));
         assert!((a - b).abs() < 0.01, "flat mean {a} vs exemplar {b}");
-        // Without separation, the lighting is copied piecewise.
-        let kept = Synthesis::new(&ex).size(192, 192).seed(2).quilt(&QuiltParams::default()).unwrap().image;
+        // Without separation, the lighting is copied piecewise. (The
+        // rarity bound alone avoids the exemplar's darkest corners, which
+        // the vignette makes unique: 0.45 of the variation is kept with it,
+        // so the control runs without it.)
+        let plain = QuiltParams { rarity: 0.0, ..QuiltParams::default() };
+        let kept = Synthesis::new(&ex).size(192, 192).seed(2).quilt(&plain).unwrap().image;
         assert!(nonstationarity(&kept) > 0.5 * before, "kept {} of {before}", nonstationarity(&kept));
         // Stretch re-lights with the exemplar's own field: the ramp comes back, left dark, right bright.
         let s = Synthesis::new(&ex).size(192, 192).seed(2).relight(Relight::Stretch).quilt(&QuiltParams::default()).unwrap().image;

@@ -21,6 +21,7 @@ pub mod patchmatch;
 pub mod poisson;
 pub mod problem;
 pub mod quilt;
+pub mod rarity;
 mod torus;
 pub mod vote;
 

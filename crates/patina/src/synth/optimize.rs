@@ -45,6 +45,9 @@ pub struct OptimizeParams {
     /// A quilt start keeps the exemplar's regular structure in phase
     /// ([`super::QuiltParams::lattice`]).
     pub lattice: bool,
+    /// A quilt start copies the exemplar's rare features sparingly
+    /// ([`super::QuiltParams::rarity`]; 0 = off).
+    pub rarity: f32,
 }
 
 /// Initial nearest-neighbour field of the coarsest level.
@@ -93,6 +96,7 @@ impl Default for OptimizeParams {
             init: Init::QuiltSeams,
             stop_threshold: 5.0 / 255.0,
             lattice: true,
+            rarity: QuiltParams::default().rarity,
         }
     }
 }
@@ -184,8 +188,9 @@ impl Synthesis<'_> {
         domain: &SourceDomain,
         seed: u64,
         seams_only: bool,
-        lattice: bool,
+        start: &OptimizeParams,
     ) -> Result<(Nnf, Mask, Option<super::Lattice>)> {
+        let (lattice, rarity) = (start.lattice, start.rarity);
         let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed).tileable(self.tileable);
         if let Some(m) = allowed {
             problem = problem.source_mask(m);
@@ -205,10 +210,10 @@ impl Synthesis<'_> {
             // structure per block, and a 512 -> 4096 quilt has a quarter as
             // many blocks to search for.
             let block = (style.width().min(style.height()) / 4).clamp(8, 128);
-            QuiltParams { block: Some((block, block)), lattice, ..QuiltParams::default() }
+            QuiltParams { block: Some((block, block)), lattice, rarity, ..QuiltParams::default() }
         } else {
             let block = (style.width().min(style.height()) / 3).max(2 * domain.radius() + 3);
-            QuiltParams { block: Some((block, block)), lattice, ..QuiltParams::default() }
+            QuiltParams { block: Some((block, block)), lattice, rarity, ..QuiltParams::default() }
         };
         let quilted = problem.quilt(&params)?;
         let plan = quilted.plan;
@@ -299,7 +304,7 @@ impl Synthesis<'_> {
                         let sg = sguide_pyr.as_ref().map(|p| &p[level]);
                         let tg = tguide_pyr.as_ref().map(|p| &p[level]);
                         let allowed = allowed_pyr.as_ref().map(|p| &p[level]);
-                        match self.quilt_field(style, sg, tg, allowed, (tw, th), &domain, level_seed, seams_only, params.lattice) {
+                        match self.quilt_field(style, sg, tg, allowed, (tw, th), &domain, level_seed, seams_only, params) {
                             Ok((field, overlap, found)) => {
                                 lattice = found;
                                 seams = seams_only.then(|| match self.tileable {

@@ -70,6 +70,16 @@ pub struct QuiltParams {
     /// to 0.30 to at most 0.24 of the self-similarity on the structured
     /// ones (0.5 before).
     pub reuse: f32,
+    /// Rare-feature reuse penalty (not in the paper): a candidate's cost is
+    /// also multiplied by 1 + rarity x the largest (rarity - 2)+ x uses over
+    /// the exemplar cells it holds (cells a quarter of a block wide; their
+    /// mean), where rarity is how far a pixel's neighbourhood is from its
+    /// nearest twin elsewhere in the exemplar, over the median
+    /// ([`super::rarity`]). A knot or a lichen rosette
+    /// already pasted is then avoided in proportion to how distinctive it
+    /// is, while common material is shared as before. 0 turns it off. Not
+    /// applied to texture transfer.
+    pub rarity: f32,
     /// Blend the seams in the gradient domain after cutting ([`super::blend`]):
     /// blocks whose brightness differs meet without a visible step. Not
     /// applied to texture transfer (guided quilting).
@@ -94,6 +104,7 @@ impl Default for QuiltParams {
             feather: 0,
             transfer_passes: 3,
             reuse: 1.5,
+            rarity: 1.0,
             blend: true,
             lattice: true,
         }
@@ -113,8 +124,8 @@ impl QuiltParams {
             return Err(Error::invalid(format!("overlap {ow}x{oh} must be at least 1 and smaller than the block {bw}x{bh}")));
         }
         let bad = |v: f32| v.is_nan() || v < 0.0;
-        if bad(self.tolerance) || bad(self.reuse) {
-            return Err(Error::invalid("quilting tolerance and reuse penalty must be >= 0"));
+        if bad(self.tolerance) || bad(self.reuse) || bad(self.rarity) {
+            return Err(Error::invalid("quilting tolerance, reuse and rarity penalties must be >= 0"));
         }
         Ok(((bw, bh), (ow, oh)))
     }
@@ -356,19 +367,39 @@ fn vertical_cut(err: &[f32], cols: usize, rows: usize) -> Vec<usize> {
 /// never depend on threads. A candidate's reuse is the mean coverage over
 /// its own rectangle: a distinctive feature used by many blocks, whatever
 /// their exact offsets, makes every candidate holding it expensive.
+///
+/// With a rarity map ([`super::rarity`]), each cell also holds how
+/// distinctive it is: its mean rarity above [`super::rarity::DISTINCT_FROM`]
+/// (0 for common material).
+/// A candidate's feature reuse is the largest distinctiveness x count over
+/// its cells, so a block holding a knot already pasted once costs more the
+/// rarer the knot, while plain material is shared freely.
 struct Usage {
     cell: (usize, usize),
     block: (usize, usize),
     cols: usize,
     rows: usize,
     counts: Vec<u32>,
+    distinct: Vec<f32>,
 }
 
 impl Usage {
-    fn new(source: (usize, usize), block: (usize, usize)) -> Self {
+    fn new(source: (usize, usize), block: (usize, usize), rarity: Option<&Image>) -> Self {
         let cell = ((block.0 / 4).max(1), (block.1 / 4).max(1));
         let (cols, rows) = (source.0.div_ceil(cell.0), source.1.div_ceil(cell.1));
-        Usage { cell, block, cols, rows, counts: vec![0; cols * rows] }
+        let mut distinct = vec![0f32; cols * rows];
+        if let Some(r) = rarity {
+            let mut area = vec![0f32; cols * rows];
+            for y in 0..source.1 {
+                for x in 0..source.0 {
+                    let c = y / cell.1 * cols + x / cell.0;
+                    distinct[c] += (r.at(x, y, 0) - super::rarity::DISTINCT_FROM).max(0.0);
+                    area[c] += 1.0;
+                }
+            }
+            distinct.iter_mut().zip(&area).for_each(|(d, a)| *d /= a);
+        }
+        Usage { cell, block, cols, rows, counts: vec![0; cols * rows], distinct }
     }
     /// The cells a block from (sx, sy) covers.
     fn cells(&self, sx: usize, sy: usize) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
@@ -396,7 +427,23 @@ impl Usage {
         }
         sum as f32 / n.max(1) as f32
     }
+    /// For a block from (sx, sy): the largest distinctiveness x count over
+    /// the cells it would take (rare features already pasted), and the
+    /// largest distinctiveness of those never pasted yet.
+    fn feature(&self, sx: usize, sy: usize) -> (f32, f32) {
+        let (xs, ys) = self.cells(sx, sy);
+        ys.flat_map(|y| xs.clone().map(move |x| y * self.cols + x)).fold((0.0f32, 0.0f32), |(used, fresh), c| {
+            let (d, n) = (self.distinct[c], self.counts[c]);
+            (used.max(d * n as f32), if n == 0 { fresh.max(d) } else { fresh })
+        })
+    }
 }
+
+/// How much a rare feature not pasted yet lowers a candidate's cost, as a
+/// share of the rarity penalty: the cost is divided by 1 + this x rarity x
+/// distinctiveness, so each distinctive feature tends to appear once rather
+/// than never.
+const FIRST_USE: f32 = 1.0;
 
 /// Everything one quilting pass reads.
 struct Pass<'a> {
@@ -418,6 +465,8 @@ struct Pass<'a> {
     wrap: bool,
     /// Blocks are kept in phase with their neighbours on this lattice.
     lattice: Option<&'a Lattice>,
+    /// The exemplar's rarity map, for bounding the reuse of rare features.
+    rarity: Option<&'a Image>,
 }
 
 /// The strips of a block already covered when it is placed, where its cuts
@@ -452,7 +501,7 @@ impl Pass<'_> {
             Image::new(nx * stx + self.overlap.0, ny * sty + self.overlap.1, self.source.channels())
         };
         let mut placements = Vec::with_capacity(nx * ny);
-        let mut usage = Usage::new(self.source.size(), self.block);
+        let mut usage = Usage::new(self.source.size(), self.block, self.rarity);
         // Per block, its source position minus its canvas position.
         let mut shifts: Vec<Option<[f32; 2]>> = vec![None; nx * ny];
         let waves = 2 * (ny - 1) + (nx - 1) + 1;
@@ -543,7 +592,9 @@ impl Pass<'_> {
                 keep_in_phase(&mut costs, vw, lattice, (x, y), &neighbour_shifts.collect::<Vec<_>>());
             }
             let exact = |sx: usize, sy: usize| {
-                let reuse = 1.0 + self.params.reuse * usage.around(sx, sy);
+                let (used, fresh) = usage.feature(sx, sy);
+                let reuse = (1.0 + self.params.reuse * usage.around(sx, sy) + self.params.rarity * used)
+                    / (1.0 + FIRST_USE * self.params.rarity * fresh);
                 let mut e = 0.0;
                 if m_sum > 0.0 {
                     e += scales.0 * masked_ssd(self.source, self.weights, &template, &overlap_mask, bw, bh, sx, sy);
@@ -722,6 +773,16 @@ impl Synthesis<'_> {
         let gspectral = guided.map(|(g, _)| SpectralSource::new(g, &gweights));
         let lattice = if params.lattice && guided.is_none() { Lattice::detect(src, &weights) } else { None };
         let lattice = lattice.and_then(|l| l.longer_than(block.0.min(block.1) as f32 / 3.0));
+        let rarity = if params.rarity > 0.0 && guided.is_none() {
+            Some(super::rarity::rarity(
+                src,
+                &weights,
+                (block.0.min(block.1) / 4).max(super::rarity::SMALLEST),
+                rng::derive(self.seed, &[0x7a7e]),
+            )?)
+        } else {
+            None
+        };
         let mut previous: Option<Image> = None;
         let mut plan = None;
         for pass in 0..passes {
@@ -752,6 +813,7 @@ impl Synthesis<'_> {
                 usable: self.source_mask.map(|m| usable_placements(m, pblock)),
                 wrap: self.tileable,
                 lattice: lattice.as_ref(),
+                rarity: rarity.as_ref(),
             };
             if pass_state.usable.as_ref().is_some_and(|u| !u.contains(&true)) {
                 return Err(Error::invalid(format!("no {}x{} block lies wholly inside the allowed source region", pblock.0, pblock.1)));
