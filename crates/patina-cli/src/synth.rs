@@ -12,6 +12,11 @@ use std::path::{Path, PathBuf};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Method {
+    /// Quilt a plain enlargement; optimize when the output must tile or follows guides. (Two blind reviews of
+    /// 7 structured photos preferred the quilt's whole tiles and straight courses to optimize's healed seams,
+    /// and its detail coherence was as good or better on 8 of 10 real exemplars; a tileable quilt keeps its
+    /// cuts unblended, and guided quilting does not blend its seams.)
+    Auto,
     /// Texture optimization: PatchMatch search + voting over a pyramid (EbSynth-like).
     Optimize,
     /// Image quilting: blocks joined along minimum-error cuts (Efros-Freeman).
@@ -86,13 +91,13 @@ pub struct Args {
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(usize, usize)>,
     /// Synthesis method.
-    #[arg(long, value_enum, default_value_t = Method::Optimize)]
+    #[arg(long, value_enum, default_value_t = Method::Auto)]
     pub method: Method,
     /// Random seed: the same inputs and seed give the same bytes.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Patch side in pixels, odd (optimize).
-    #[arg(long, default_value_t = 5, value_parser = |s: &str| crate::flags::count(s, 3, 63))]
+    #[arg(long, default_value_t = 5, value_parser = |s: &str| crate::flags::count(s, 3, 63).and_then(|v| if v % 2 == 1 { Ok(v) } else { Err(format!("patch {v} must be odd")) }))]
     pub patch: usize,
     /// Search + vote iterations per pyramid level (optimize).
     #[arg(long, default_value_t = 6, value_parser = |s: &str| crate::flags::count(s, 1, 100))]
@@ -277,7 +282,13 @@ pub fn run(args: Args) -> Result<()> {
         if let Some((s, t)) = &guides {
             problem = problem.guides(s, t, args.guide.guide_weight);
         }
-        Ok(match args.method {
+        let method = match args.method {
+            Method::Auto if args.tile || guides.is_some() => Method::Optimize,
+            Method::Auto => Method::Quilt,
+            m => m,
+        };
+        Ok(match method {
+            Method::Auto => unreachable!("resolved above"),
             Method::Optimize => {
                 let mut p = args.optimize_params();
                 let out = problem.optimize(&p)?;

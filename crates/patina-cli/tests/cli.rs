@@ -43,7 +43,12 @@ fn synth_writes_the_image_and_a_complete_manifest() {
     let dir = scratch("ok");
     let ex = exemplar(&dir);
     let out = dir.join("out.png");
+    // The default method quilts a plain enlargement.
     let r = patina(&["synth", s(&ex), "-o", s(&out), "--size", "100x80", "--seed", "4"], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("out.png.manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["params"]["method"], "quilt");
+    let r = patina(&["synth", s(&ex), "-o", s(&out), "--size", "100x80", "--seed", "4", "--method", "optimize"], None);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert_eq!(load(&out).unwrap().size(), (100, 80));
     let m: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("out.png.manifest.json")).unwrap()).unwrap();

@@ -3,7 +3,9 @@
 //! enlarged to 512 by optimization and by quilting. Prints time, peak
 //! memory, coherence and completeness over the exemplar's self-similarity,
 //! the block-grid peak over the exemplar's, the large-scale
-//! non-stationarity and the near-verbatim repeated share; writes every
+//! non-stationarity, the near-verbatim repeated share, how often the
+//! exemplar's rarest features are copied (`metrics::rare_feature_use`),
+//! and coherence and completeness of the detail alone (tone removed); writes every
 //! output to OUT_DIR (default /tmp/patina-engine) for looking at.
 //!
 //!     cargo run --release -p patina --example engine_quality [OUT_DIR] [--lit]
@@ -49,6 +51,18 @@ fn exemplar(file: &str) -> Option<Image> {
     Some(if img.channels() > 3 { img.select_channels(0..3) } else { img })
 }
 
+/// The image minus its blur at sigma 6 px: detail without the tone, so a
+/// smooth brightness offset (a gradient-domain seam blend's) is not counted
+/// as a coherence defect the eye does not see.
+fn detail(img: &Image) -> Image {
+    let blur = patina::image::filter::gaussian_blur(img, DETAIL_SIGMA);
+    Image::from_fn(img.width(), img.height(), img.channels(), |x, y, p| {
+        p.iter_mut().zip(img.pixel(x, y)).zip(blur.pixel(x, y)).for_each(|((o, a), b)| *o = a - b + 0.5)
+    })
+}
+
+const DETAIL_SIGMA: f32 = 6.0;
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let lit_mode = args.iter().any(|a| a == "--lit");
@@ -72,8 +86,8 @@ fn main() {
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).cloned();
     let out_dir = args.first().filter(|a| !a.starts_with("--")).cloned().unwrap_or_else(|| "/tmp/patina-engine".into());
     std::fs::create_dir_all(&out_dir).expect("output folder");
-    println!("| exemplar | method | time (ms) | coherence / self | completeness / self | grid peak / exemplar's | non-stationarity (exemplar) | repeated share | rare use |");
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| exemplar | method | time (ms) | coherence / self | completeness / self | grid peak / exemplar's | non-stationarity (exemplar) | repeated share | rare use | detail coherence / completeness |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (file, name) in SET {
         if only.as_deref().is_some_and(|o| o != name) {
             continue;
@@ -83,6 +97,7 @@ fn main() {
             ex = patina::samples::lit(&ex);
         }
         let own = metrics::self_similarity(&ex, 5, 1).expect("self-similarity");
+        let own_detail = metrics::self_similarity(&detail(&ex), 5, 1).expect("self-similarity");
         let grid0 = metrics::grid_peak(&ex);
         let ns0 = metrics::nonstationarity(&ex);
         patina::image::io::save_png(&ex, Path::new(&out_dir).join(format!("{name}_exemplar.png")), patina::image::io::BitDepth::Eight)
@@ -100,14 +115,17 @@ fn main() {
             let b = metrics::bidirectional(&out, &ex, 5, 1).expect("bidirectional");
             let rep = metrics::repeated_share(&out, 9, 16, 1).expect("repeats");
             let rare = metrics::rare_feature_use(&out, &ex, 9, 16, 1).expect("rare use");
+            let d = metrics::bidirectional(&detail(&out), &detail(&ex), 5, 1).expect("bidirectional");
             println!(
-                "| {name} | {method} | {ms:.0} | {:.2} | {:.2} | {:.2} | {:.3} ({:.3}) | {:.3} | {rare:.2} |",
+                "| {name} | {method} | {ms:.0} | {:.2} | {:.2} | {:.2} | {:.3} ({:.3}) | {:.3} | {rare:.2} | {:.2} / {:.2} |",
                 b.coherence / own,
                 b.completeness / own,
                 metrics::grid_peak(&out) / grid0,
                 metrics::nonstationarity(&out),
                 ns0,
-                rep
+                rep,
+                d.coherence / own_detail,
+                d.completeness / own_detail
             );
             patina::image::io::save_png(&out, Path::new(&out_dir).join(format!("{name}_{method}.png")), patina::image::io::BitDepth::Eight)
                 .unwrap();

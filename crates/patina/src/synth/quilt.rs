@@ -115,6 +115,9 @@ impl QuiltParams {
     /// Block and overlap sizes for an exemplar of `sw` x `sh`.
     pub fn resolve(&self, sw: usize, sh: usize) -> Result<((usize, usize), (usize, usize))> {
         let auto = (sw.min(sh) / 4).clamp(8, 64);
+        if self.block.is_none() && (auto > sw || auto > sh) {
+            return Err(Error::invalid(format!("the exemplar ({sw}x{sh}) is smaller than one {auto}x{auto} quilting block")));
+        }
         let (bw, bh) = self.block.unwrap_or((auto, auto));
         let (ow, oh) = self.overlap.unwrap_or(((bw / 6).max(2), (bh / 6).max(2)));
         if bw < 3 || bh < 3 || bw > sw || bh > sh {
