@@ -282,32 +282,28 @@ pub fn run(args: Args) -> Result<()> {
         if let Some((s, t)) = &guides {
             problem = problem.guides(s, t, args.guide.guide_weight);
         }
-        let method = match args.method {
-            Method::Auto if args.tile || guides.is_some() => Method::Optimize,
-            Method::Auto => Method::Quilt,
-            m => m,
+        let quilt = match args.method {
+            Method::Quilt => true,
+            Method::Optimize => false,
+            Method::Auto => !args.tile && guides.is_none(),
         };
-        Ok(match method {
-            Method::Auto => unreachable!("resolved above"),
-            Method::Optimize => {
-                let mut p = args.optimize_params();
-                let out = problem.optimize(&p)?;
-                p.levels = Some(out.levels);
-                let texels = (p.patch * p.patch) as f32;
-                manifest.metrics.insert("mean_patch_rms".into(), json!((out.nnf.mean_cost(None) / texels).sqrt()));
-                manifest.metrics.insert("lighting".into(), json!(out.lighting));
-                manifest.metrics.insert("lattice".into(), json!(out.lattice));
-                (out.image, json!({ "method": "optimize", "optimize": p }), out.lattice)
-            }
-            Method::Quilt => {
-                let mut p = args.quilt_params();
-                let out = problem.quilt(&p)?;
-                (p.block, p.overlap) = (Some(out.plan.block), Some(out.plan.overlap));
-                manifest.metrics.insert("blocks".into(), json!(out.plan.placements.len()));
-                manifest.metrics.insert("lighting".into(), json!(out.lighting));
-                manifest.metrics.insert("lattice".into(), json!(out.lattice));
-                (out.image, json!({ "method": "quilt", "quilt": p }), out.lattice)
-            }
+        Ok(if quilt {
+            let mut p = args.quilt_params();
+            let out = problem.quilt(&p)?;
+            (p.block, p.overlap) = (Some(out.plan.block), Some(out.plan.overlap));
+            manifest.metrics.insert("blocks".into(), json!(out.plan.placements.len()));
+            manifest.metrics.insert("lighting".into(), json!(out.lighting));
+            manifest.metrics.insert("lattice".into(), json!(out.lattice));
+            (out.image, json!({ "method": "quilt", "quilt": p }), out.lattice)
+        } else {
+            let mut p = args.optimize_params();
+            let out = problem.optimize(&p)?;
+            p.levels = Some(out.levels);
+            let texels = (p.patch * p.patch) as f32;
+            manifest.metrics.insert("mean_patch_rms".into(), json!((out.nnf.mean_cost(None) / texels).sqrt()));
+            manifest.metrics.insert("lighting".into(), json!(out.lighting));
+            manifest.metrics.insert("lattice".into(), json!(out.lattice));
+            (out.image, json!({ "method": "optimize", "optimize": p }), out.lattice)
         })
     })?;
     manifest.timings_ms.insert("synthesize".into(), clock.lap());

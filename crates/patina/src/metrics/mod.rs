@@ -14,7 +14,6 @@ pub use stationarity::{stationarity, Stationarity};
 
 use crate::error::{Error, Result};
 use crate::image::{Image, Mask};
-use crate::synth::nnf::{random_nnf, SourceDomain};
 use crate::synth::{Nnf, PatchMatch, PatchMetric};
 
 /// PatchMatch sweeps used by the metrics.
@@ -28,15 +27,9 @@ pub(super) fn nearest(from: &Image, to: &Image, patch: usize, exclude_self: Opti
     if from.channels() != to.channels() {
         return Err(Error::invalid(format!("cannot compare images with {} and {} channels", from.channels(), to.channels())));
     }
-    let r = patch / 2;
-    let domain = SourceDomain::new(to.width(), to.height(), r, None)?;
-    let interior = SourceDomain::new(from.width(), from.height(), r, None)?;
-    let inside = Mask::from_fn(from.width(), from.height(), |x, y| interior.contains(x as i64, y as i64));
     let metric = PatchMetric::mean_ssd(from.channels());
-    let mut nnf = random_nnf(from.width(), from.height(), &domain, seed);
-    let pm = PatchMatch { radius: r, iterations: SWEEPS, metric: &metric, uniformity: 0.0, max_search_radius: None, exclude_self };
-    pm.improve(from, to, &domain, &mut nnf, Some(&inside), seed ^ 0x5eed);
-    Ok((nnf, inside))
+    let pm = PatchMatch { radius: patch / 2, iterations: SWEEPS, metric: &metric, uniformity: 0.0, max_search_radius: None, exclude_self };
+    pm.nearest(from, to, seed, seed ^ 0x5eed)
 }
 
 fn rms_map(nnf: &Nnf, inside: &Mask, patch: usize) -> Image {

@@ -17,7 +17,8 @@
 //! iteration: that would depend on scheduling).
 
 use super::distance::PatchMetric;
-use super::nnf::{Match, Nnf, SourceDomain};
+use super::nnf::{random_nnf, Match, Nnf, SourceDomain};
+use crate::error::Result;
 use crate::image::{Image, Mask};
 use crate::rng;
 use rayon::prelude::*;
@@ -205,6 +206,20 @@ impl Scan<'_> {
 }
 
 impl PatchMatch<'_> {
+    /// The nearest `to` patch of every interior patch of `from` (whole
+    /// images, patches of this run's radius), from a random field seeded
+    /// by `init_seed` improved with `search_seed`; also the mask of
+    /// `from`'s interior pixels, the only ones matched.
+    pub fn nearest(&self, from: &Image, to: &Image, init_seed: u64, search_seed: u64) -> Result<(Nnf, Mask)> {
+        let r = self.radius;
+        let domain = SourceDomain::new(to.width(), to.height(), r, None)?;
+        let interior = SourceDomain::new(from.width(), from.height(), r, None)?;
+        let inside = Mask::from_fn(from.width(), from.height(), |x, y| interior.contains(x as i64, y as i64));
+        let mut nnf = random_nnf(from.width(), from.height(), &domain, init_seed);
+        self.improve(from, to, &domain, &mut nnf, Some(&inside), search_seed);
+        Ok((nnf, inside))
+    }
+
     /// Improve `nnf` (target -> source) in place. Only pixels set in
     /// `search` are updated (all when `None`). `seed` names this run.
     pub fn improve(&self, target: &Image, source: &Image, domain: &SourceDomain, nnf: &mut Nnf, search: Option<&Mask>, seed: u64) {

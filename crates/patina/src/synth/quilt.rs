@@ -75,10 +75,12 @@ pub struct QuiltParams {
     /// the exemplar cells it holds (cells a quarter of a block wide; their
     /// mean), where rarity is how far a pixel's neighbourhood is from its
     /// nearest twin elsewhere in the exemplar, over the median
-    /// ([`super::rarity`]). A knot or a lichen rosette
-    /// already pasted is then avoided in proportion to how distinctive it
-    /// is, while common material is shared as before. 0 turns it off. Not
-    /// applied to texture transfer.
+    /// ([`super::rarity`]), and divided by 1 + rarity x the largest
+    /// (rarity - 2)+ of its cells never pasted yet. A knot or a lichen
+    /// rosette already pasted is then avoided in proportion to how
+    /// distinctive it is, one not pasted yet is favoured (so it appears
+    /// about once rather than never), and common material is shared as
+    /// before. 0 turns it off. Not applied to texture transfer.
     pub rarity: f32,
     /// Blend the seams in the gradient domain after cutting ([`super::blend`]):
     /// blocks whose brightness differs meet without a visible step. Not

@@ -15,11 +15,10 @@
 //! 4-7 copies of the same knot in a 2x enlargement, which reads as a stamp.
 
 use super::distance::PatchMetric;
-use super::nnf::{random_nnf, SourceDomain};
 use super::patchmatch::PatchMatch;
 use crate::error::Result;
 use crate::image::resample::{resize, Filter};
-use crate::image::{Image, Mask};
+use crate::image::Image;
 use crate::rng;
 
 /// Rarity above which a neighbourhood counts as a distinctive feature. On
@@ -72,17 +71,14 @@ fn rarity_at(exemplar: &Image, weights: &[f32], feature: usize, seed: u64) -> Re
     let small = if shrink > 1 { resize(exemplar, w / shrink, h / shrink, Filter::Cubic)? } else { exemplar.clone() };
     let (sw, sh) = small.size();
     let r = PATCH / 2;
-    let domain = SourceDomain::new(sw, sh, r, None)?;
-    let inside = Mask::from_fn(sw, sh, |x, y| domain.contains(x as i64, y as i64));
     let metric = PatchMetric::ssd(weights.to_vec());
-    let mut nnf = random_nnf(sw, sh, &domain, seed);
     let pm =
         PatchMatch { radius: r, iterations: SWEEPS, metric: &metric, uniformity: 0.0, max_search_radius: None, exclude_self: Some(PATCH) };
-    pm.improve(&small, &small, &domain, &mut nnf, Some(&inside), seed ^ 0x7a7e);
+    let (nnf, _) = pm.nearest(&small, &small, seed, seed ^ 0x7a7e)?;
     // Distances at interior pixels; border pixels take the nearest interior one.
     let dist = |x: usize, y: usize| {
-        let (cx, cy) = domain.clamp(x as i64, y as i64);
-        nnf.get(cx as usize, cy as usize).cost.max(0.0).sqrt()
+        let (cx, cy) = (x.clamp(r, sw - 1 - r), y.clamp(r, sh - 1 - r));
+        nnf.get(cx, cy).cost.max(0.0).sqrt()
     };
     let mut sorted: Vec<f32> = (r..sh - r).flat_map(|y| (r..sw - r).map(move |x| (x, y))).map(|(x, y)| dist(x, y)).collect();
     sorted.sort_by(f32::total_cmp);
