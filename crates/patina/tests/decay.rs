@@ -3,6 +3,7 @@
 //! background, with an object mask.
 
 use patina::decay::composite::{composite, Layers};
+use patina::decay::layer::Relief;
 use patina::decay::texture::{generate, DecayClass};
 use patina::decay::{self, DecayParams, Inputs, Transition};
 use patina::image::color::{linear_to_srgb, to_lab};
@@ -254,7 +255,7 @@ fn a_matte_decay_drops_the_photos_highlight_and_keeps_its_shading() {
 
 /// Eq. 3 alone: the composite without a transition zone.
 fn plain(photo: &Image, photo_lab: &Image, texture_lab: &Image, onset: &Image, shading: &Image, degree: &Image) -> Image {
-    composite(photo, photo_lab, &Layers { texture_lab, onset, shading, stain: None }, degree)
+    composite(photo, photo_lab, &Layers { texture_lab, onset, shading, stain: None, young: 0.6, relief: Relief::FLAT, light: [0.0, -1.0] }, degree)
 }
 
 /// A flat grey photo decayed fully left of x = 80 and barely begun (D =
@@ -270,7 +271,7 @@ fn stain_profile(class: DecayClass, transition: Transition) -> Vec<f32> {
     let shading = Image::from_fn(W, H, 1, |_, _, p| p[0] = 1.0);
     let degree = Image::from_fn(W, H, 1, |x, _, p| p[0] = if x < 80 { 1.0 } else { 0.01 });
     let stain = transition.field(W, H, 3);
-    let layers = Layers { texture_lab: &lab_tex, onset: &onset, shading: &shading, stain: stain.as_ref() };
+    let layers = Layers { texture_lab: &lab_tex, onset: &onset, shading: &shading, stain: stain.as_ref(), young: 0.6, relief: Relief::FLAT, light: [0.0, -1.0] };
     let out = to_lab(&composite(&input, &lab_in, &layers, &degree));
     (80..W)
         .map(|x| {

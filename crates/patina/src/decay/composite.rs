@@ -39,6 +39,7 @@
 use crate::image::color::{lab_pixel_to_srgb, linear_pixel_to_lab, srgb_to_linear};
 use crate::image::filter::{gaussian_blur, shrunk_blur};
 use crate::image::noise::{smoothstep, Layer};
+use super::layer::{self, Relief};
 use crate::image::{Image, Mask};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -134,8 +135,6 @@ fn coarse_blur(img: &Image, sigma: f32) -> Image {
     (f >= 2.0).then(|| shrunk_blur(img, sigma, f)).flatten().unwrap_or_else(|| gaussian_blur(img, sigma))
 }
 
-/// Opacity of a texel that has just appeared ([`maturity`] 0).
-const YOUNG: f32 = 0.6;
 /// Degree, past a texel's onset, over which it matures to full opacity.
 const MATURING: f32 = 0.35;
 
@@ -143,7 +142,8 @@ const MATURING: f32 = 0.35;
 /// when it appears, 1 once the degree is [`MATURING`] past its onset (and
 /// at D = 1 for every texel). Young decay is a thinner layer (rust a
 /// translucent film before it scales, moss sparse before it cushions),
-/// so a texel's opacity goes from [`YOUNG`] to 1 as it matures: decayed
+/// so a texel's opacity goes from the class's young opacity
+/// ([`super::DecayClass::young_opacity`]) to 1 as it matures: decayed
 /// areas keep deepening after they first show, instead of arriving at
 /// full strength in their first frame.
 #[inline]
@@ -158,8 +158,11 @@ pub fn maturity(degree: f32, onset: f32) -> f32 {
 const ONSET_SOFTNESS: f32 = 0.04;
 
 /// Share of the texture's own luminance contrast kept by the colour
-/// transfer even when the photo is flatter (so cracks stay cracks on
-/// uniform paint).
+/// transfer even when the photo is flatter (so the substrate's grain
+/// stays on uniform paint). The transfer never raises the contrast: the
+/// photo's luminance spread holds its shading and carving, which the
+/// composite applies anyway, and scaling the texture's grain by it made
+/// salt-and-pepper on a lit white statue.
 const MIN_CONTRAST: f32 = 0.7;
 
 /// The blend weight of a texel with onset `onset` at degree `degree`
@@ -175,8 +178,8 @@ pub fn weight(degree: f32, onset: f32) -> f32 {
 /// Colour transfer (Reinhard, Ashikhmin, Gooch, Shirley 2001), in Lab (the
 /// paper works in l-alpha-beta; Lab is as decorrelated for this purpose):
 /// per channel, move the texture's mean and standard deviation to those
-/// of the photo inside the mask. The luminance contrast is scaled by at
-/// least 0.7, so a flat-painted object still shows its cracks. `strength`
+/// of the photo inside the mask. The luminance contrast is scaled by
+/// 0.7 to 1 (see [`MIN_CONTRAST`]). `strength`
 /// blends between the texture's own colours (0) and the full transfer (1).
 pub fn transfer_colour(texture_lab: &mut Image, photo_lab: &Image, mask: &Mask, strength: f32) {
     let stats = |img: &Image, keep: &dyn Fn(usize) -> bool| {
@@ -202,7 +205,7 @@ pub fn transfer_colour(texture_lab: &mut Image, photo_lab: &Image, mask: &Mask, 
         .map(|c| {
             let s = to[c].1 / from[c].1.max(1e-3);
             if c == 0 {
-                s.max(MIN_CONTRAST)
+                s.clamp(MIN_CONTRAST, 1.0)
             } else {
                 s
             }
@@ -217,6 +220,19 @@ pub fn transfer_colour(texture_lab: &mut Image, photo_lab: &Image, mask: &Mask, 
     });
 }
 
+/// The mean Lab chroma (sqrt(a^2 + b^2)) of `lab` over `mask`: about 5 on
+/// grey stone, 60 on an orange hydrant.
+pub fn mean_chroma(lab: &Image, mask: &Mask) -> f32 {
+    let (mut sum, mut n) = (0f64, 0usize);
+    for (px, &m) in lab.data().chunks_exact(3).zip(mask.bits()) {
+        if m {
+            sum += (px[1] as f64).hypot(px[2] as f64);
+            n += 1;
+        }
+    }
+    (sum / n.max(1) as f64) as f32
+}
+
 /// The decay's layers as [`composite`] blends them into the photo.
 pub struct Layers<'a> {
     /// The decay texture's colour in Lab.
@@ -227,6 +243,12 @@ pub struct Layers<'a> {
     pub shading: &'a Image,
     /// The stained zone around the decay, laid out over the photo.
     pub stain: Option<&'a StainField>,
+    /// Opacity of a texel that has just appeared (1: it appears whole).
+    pub young: f32,
+    /// The decay layer's relief and the photo's light ([`super::layer`]).
+    pub relief: Relief,
+    /// Towards the photo's light, in the image plane ([`super::layer::light_direction`]).
+    pub light: [f32; 2],
 }
 
 /// Eq. 3: the photo `photo` (sRGB, its bytes kept wherever the decay is
@@ -240,15 +262,23 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
     let stain = layers.stain.filter(|_| channels >= 3);
     let tint = stain.map_or([1.0; 3], |s| s.tint());
     let stain = stain.map(|s| s.weights(&visible, degree));
+    // The opacity of each texel: visible, and thickening as it matures.
+    let young = layers.young;
+    let mut opacity = visible;
+    opacity.data_mut().iter_mut().zip(degree.data()).zip(layers.onset.data()).for_each(|((v, &d), &o)| {
+        *v *= young + (1.0 - young) * maturity(d, o);
+    });
+    let lighting = if channels >= 3 { layer::factor(&opacity, degree, &layers.relief, layers.light) } else { None };
     let mut out = photo.clone();
     out.data_mut().par_chunks_mut(w * channels).enumerate().for_each(|(y, row)| {
         for (x, px) in row.chunks_exact_mut(channels).enumerate() {
             let i = y * w + x;
-            let wt = visible.data()[i] * (YOUNG + (1.0 - YOUNG) * maturity(degree.data()[i], layers.onset.data()[i]));
+            let wt = opacity.data()[i];
             // Below 1/500 the glaze changes no 8-bit level: skip its colour work.
             let b = stain.as_ref().map_or(0.0, |s| s[i]).max(0.0);
             let b = if b < 0.002 { 0.0 } else { b };
-            if (wt <= 0.0 && b <= 0.0) || channels < 3 {
+            let lit = lighting.as_ref().map_or(1.0, |f| f[i]);
+            if (wt <= 0.0 && b <= 0.0 && lit == 1.0) || channels < 3 {
                 continue;
             }
             // The photo under the stain: a glaze multiplying its linear colour.
@@ -260,9 +290,11 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
                 &photo_lab.data()[i * 3..i * 3 + 3]
             };
             let t = &layers.texture_lab.data()[i * 3..i * 3 + 3];
-            // S is a ratio of linear luminance; L* goes as Y^(1/3).
+            // S is a ratio of linear luminance; L* goes as Y^(1/3). The
+            // layer's own relief lights texture and photo alike.
             let s = layers.shading.data()[i].cbrt();
-            let lab = [wt * t[0] * s + (1.0 - wt) * p[0], wt * t[1] * s + (1.0 - wt) * p[1], wt * t[2] * s + (1.0 - wt) * p[2]];
+            let r = lit.cbrt();
+            let lab = [0, 1, 2].map(|c| r * (wt * t[c] * s + (1.0 - wt) * p[c]));
             let rgb = lab_pixel_to_srgb(lab);
             for c in 0..3 {
                 px[c] = rgb[c].clamp(0.0, 1.0);

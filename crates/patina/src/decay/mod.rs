@@ -11,6 +11,7 @@
 pub mod composite;
 pub mod degree;
 pub mod exemplar;
+pub mod layer;
 pub mod shading;
 pub mod texture;
 
@@ -61,6 +62,10 @@ impl DecayParams {
     }
 }
 
+/// How much lighter (L*) the material under a spalled surface scale is
+/// than the weathered surface (peeling on an unpainted object).
+const FRESH_LIFT: f32 = 6.0;
+
 /// What [`sequence`] needs, computed once per photo.
 pub struct Prepared {
     /// The photo (sRGB), and in Lab.
@@ -82,6 +87,8 @@ pub struct Prepared {
     pub rate: Option<Image>,
     /// The stained zone around the decay.
     pub transition: Transition,
+    /// Towards the photo's light, in the image plane ([`layer::light_direction`]).
+    pub light: [f32; 2],
     params: DecayParams,
 }
 
@@ -143,9 +150,13 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     };
     let photo_lab = to_lab(photo);
     let mut texture_lab = to_lab(&texture);
-    let strength = params.class.colour_transfer();
+    let strength = params.class.colour_transfer(composite::mean_chroma(&photo_lab, &mask));
     if strength > 0.0 {
         composite::transfer_colour(&mut texture_lab, &photo_lab, &mask, strength);
+        if params.class == DecayClass::Peeling {
+            // The stone or plaster under a spalled scale is fresher, so lighter.
+            texture_lab.data_mut().chunks_exact_mut(3).for_each(|px| px[0] = (px[0] + FRESH_LIFT * strength).min(100.0));
+        }
     }
     let onset = texture.select_channels(3..4);
     // The form (shading) and the fine relief both light the decay; the
@@ -162,6 +173,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
             degree::initial(&mask, params.area, params.continuity, affinity.as_ref(), seed)?
         }
     };
+    let light = layer::light_direction(&form, &mask);
     let rate = match inputs.rate {
         Some(r) => {
             same("rate map", r.size())?;
@@ -181,6 +193,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         draws,
         rate,
         transition: inputs.transition.unwrap_or_else(|| params.class.transition()),
+        light,
         params: params.clone(),
     })
 }
@@ -206,7 +219,15 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
     for k in 0..frames {
         let degree = paced(&simulated, k, ends, &prep.onset, &prep.mask);
         let layers =
-            composite::Layers { texture_lab: &prep.texture_lab, onset: &prep.onset, shading: &prep.shading, stain: stain.as_ref() };
+            composite::Layers {
+            texture_lab: &prep.texture_lab,
+            onset: &prep.onset,
+            shading: &prep.shading,
+            stain: stain.as_ref(),
+            young: prep.params.class.young_opacity(),
+            relief: prep.params.class.relief(),
+            light: prep.light,
+        };
         let image = composite::composite(&prep.photo, &prep.photo_lab, &layers, &degree);
         out.push(Frame { degree, image });
         if let Some(p) = progress {

@@ -14,6 +14,7 @@
 //! a time.
 
 use super::composite::Transition;
+use super::layer::Relief;
 use crate::image::noise::{mix3, ramp, smoothstep, Layer};
 use crate::image::Image;
 use crate::{Error, Result};
@@ -69,6 +70,31 @@ impl DecayClass {
         }
     }
 
+    /// Opacity of a texel in its first frame ([`super::composite::maturity`]):
+    /// young rust is a translucent film and young moss sparse, so they
+    /// start at 0.6 and thicken; a flake is gone or not, and a crack is
+    /// open or not, so they appear whole.
+    pub fn young_opacity(self) -> f32 {
+        match self {
+            DecayClass::Rust | DecayClass::Mossy => 0.6,
+            DecayClass::Peeling | DecayClass::Cracked => 1.0,
+        }
+    }
+
+    /// The decay layer's relief ([`super::layer`]), in pixels of the
+    /// texture: a paint flake leaves a hole of the paint's thickness (a
+    /// lit lip on one side, a wall and a thin cast shadow on the other), a
+    /// crack is a narrow groove, rust scale stands a little proud, a moss
+    /// cushion is thick and shades its own far side.
+    pub fn relief(self) -> Relief {
+        match self {
+            DecayClass::Peeling => Relief { height: -2.0, softness: 0.7, strength: 1.0, shadow: 0.6 },
+            DecayClass::Cracked => Relief { height: -1.2, softness: 0.6, strength: 0.8, shadow: 0.5 },
+            DecayClass::Rust => Relief { height: 0.8, softness: 1.2, strength: 0.5, shadow: 0.25 },
+            DecayClass::Mossy => Relief { height: 2.0, softness: 1.5, strength: 0.6, shadow: 0.35 },
+        }
+    }
+
     /// The class's name on the command line.
     pub fn name(self) -> &'static str {
         match self {
@@ -80,17 +106,20 @@ impl DecayClass {
     }
 
     /// How far compositing first moves the texture's colours to the
-    /// photo's (Reinhard et al. 2001), from 0 (not at all) to 1. The paper
-    /// transfers for peeling and cracked, the decay of the object's own
-    /// paint. In patina neither shows the texture's paint: peeling's
-    /// visible texels are the substrate under the paint, a different
-    /// material that only takes a stain from the paint, so it gets half;
-    /// cracked shows only its cracks, dark gaps that the transfer turned
-    /// into saturated lines (dark red on an orange hydrant, navy on white
-    /// stone), so it gets none.
-    pub fn colour_transfer(self) -> f32 {
+    /// photo's (Reinhard et al. 2001), from 0 (not at all) to 1, given the
+    /// object's mean Lab chroma `chroma`. The paper transfers for peeling
+    /// and cracked, the decay of the object's own paint. In patina neither
+    /// shows the texture's paint. Peeling shows the substrate under the
+    /// paint: on a painted object (chroma 25 and up) that is the texture's
+    /// primed metal, untouched; on an unpainted grey one (stone, plaster:
+    /// chroma 10 and under) there is no paint, and what comes off is a
+    /// surface scale, showing the object's own material beneath, so the
+    /// texture is moved fully to the object's colours. Cracked shows only
+    /// its cracks, dark gaps that the transfer turned into saturated lines
+    /// (dark red on an orange hydrant, navy on white stone), so it gets none.
+    pub fn colour_transfer(self, chroma: f32) -> f32 {
         match self {
-            DecayClass::Peeling => 0.5,
+            DecayClass::Peeling => 1.0 - smoothstep(10.0, 25.0, chroma),
             DecayClass::Cracked | DecayClass::Rust | DecayClass::Mossy => 0.0,
         }
     }
@@ -206,47 +235,39 @@ fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
 }
 
-/// Peeling paint: a paint layer with flakes lifted along the grain, their
-/// curled lips lit, shadows cast down-right onto the substrate (weathered
-/// wood or plaster); each flake appears whole at its own onset.
+/// Peeling paint: the paint comes off in patches whose borders are made
+/// of whole chips (cells of 3-8 px), so an edge is jagged at the chip
+/// scale as on the lockers and shutters of ../shared/data, and a patch
+/// widens chip by chip as the degree rises: each chip's onset is the
+/// slow patch field at that point plus its own random offset, so the
+/// border advances by chips breaking off, not by a smooth front. Where the
+/// paint is gone the texture shows the substrate: here bare primed metal,
+/// a warm grey-brown primer mottled with rust stains and pitted grain; on
+/// an unpainted (grey) object compositing moves it to the object's own
+/// colour (see [`DecayClass::colour_transfer`]). The step at each border,
+/// its lit lip and cast shadow, comes from the layer relief
+/// ([`super::layer`]), not from the texture. The paint between patches
+/// never appears: it is the photo's own.
 fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
-    // The flake field at grain coordinates (u, v), given the flake cell there.
-    let flake_field = |u: f32, v: f32, cell_id: f32| g.layer(0).warped(u, v, 60.0 * s, 5, 25.0 * s) + 0.25 * (cell_id - 0.5);
-    let at = |x: f32, y: f32| {
-        let (u, v) = g.grain(x, y);
-        (u, v, g.layer(1).worley(u, v, 34.0 * s).id)
-    };
-    let threshold = -0.02;
-    let (u, v, cell_id) = at(x, y);
-    let f = flake_field(u, v, cell_id);
-    let flaked = smoothstep(threshold - 0.01, threshold + 0.01, f);
-    // Shadow of the lifted edge, cast towards +x +y.
-    let (su, sv, shadow_cell) = at(x - 2.5, y - 2.5);
-    let shadow = smoothstep(threshold - 0.01, threshold + 0.01, flake_field(su, sv, shadow_cell)) * (1.0 - flaked);
-    let lip = (1.0 - smoothstep(0.0, 0.035, (f - threshold).abs())) * (f < threshold) as u8 as f32;
+    // Mildly elongated along the grain; a strong stretch read as streaks.
+    let (u, v) = g.grain(x, y);
+    let (u, v) = (u * (0.5 + 0.5 * g.style.stretch), v);
+    let patch = g.layer(0).warped(u, v, 70.0 * s, 5, 30.0 * s);
+    let (big, small) = (g.layer(1).worley(x, y, 8.0 * s), g.layer(6).worley(x, y, 3.5));
+    let ragged = g.layer(7).fbm(x, y, 2.0, 2, 0.5);
+    let onset = 0.45 - 1.1 * patch + 0.22 * (big.id - 0.5) + 0.1 * (small.id - 0.5) + 0.04 * ragged;
     let grain = g.layer(2).white(x as i32, y as i32) - 0.5;
-    let substrate = if g.style.variant < 0.5 {
-        // Weathered grey-brown wood: fibres along the grain.
-        let fibre = g.layer(3).fbm(u * 0.08, v * 1.4, 6.0, 4, 0.6);
-        mix3([0.30, 0.25, 0.2], [0.55, 0.47, 0.38], 0.5 + 0.6 * fibre)
-    } else {
-        // Plaster: mottled grey-beige.
-        let m = g.layer(3).fbm(x, y, 14.0, 4, 0.6);
-        mix3([0.55, 0.52, 0.47], [0.75, 0.72, 0.66], 0.5 + 0.6 * m)
-    };
-    let paint_tone = 0.92 + 0.08 * g.layer(4).fbm(x, y, 40.0 * s, 3, 0.5) + 0.05 * grain;
-    let paint = [0.78 * paint_tone, 0.74 * paint_tone, 0.68 * paint_tone];
-    let under = substrate.map(|c| c * (1.0 + 0.12 * grain) * (1.0 - 0.45 * shadow));
-    let mut c = mix3(paint, under, flaked);
-    c = mix3(c, [1.0, 1.0, 1.0], 0.35 * lip);
-    // Flakes peel one at a time: the onset is that of the flake's cell. The
-    // paint between flakes, lips included, never appears: it is the
-    // photo's own paint (a lip drawn in the texture's paint read as a white
-    // sticker outline on a photo); the lift shows as the shadow inside the
-    // flake and the class's transition zone outside it.
-    let region = g.layer(5).fbm(x, y, 120.0 * s, 3, 0.5);
-    let onset = if flaked > 0.5 { (0.32 - 0.45 * region + 0.35 * (cell_id - 0.5)).clamp(0.02, 0.95) } else { NEVER };
+    let mottle = g.layer(3).fbm(x, y, 16.0, 4, 0.6);
+    let stain = smoothstep(0.1, 0.45, g.layer(4).fbm(x, y, 22.0 * s, 4, 0.55));
+    let pits = g.layer(5).worley(x, y, 11.0);
+    let pit = smoothstep(2.2, 0.8, pits.f1) * (pits.id < 0.12) as u8 as f32;
+    let primer = mix3([0.40, 0.35, 0.30], [0.52, 0.46, 0.39], 0.5 + 0.7 * mottle);
+    let mut c = mix3(primer, [0.46, 0.25, 0.12], 0.75 * stain);
+    c = mix3(c, [0.17, 0.11, 0.08], 0.8 * pit);
+    let fine = g.layer(8).fbm(x, y, 1.5, 2, 0.5);
+    c = c.map(|v| v * (1.0 + 0.07 * grain + 0.08 * fine));
+    let onset = if onset < 0.95 { onset.clamp(0.02, 0.95) } else { NEVER };
     [c[0], c[1], c[2], onset]
 }
 
