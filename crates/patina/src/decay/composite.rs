@@ -36,7 +36,7 @@
 //! the photo's own detail and shading). It appears only where the decay
 //! has begun (D > 0), so pixels at D = 0 stay the photo's bytes.
 
-use crate::image::color::{lab_pixel_to_srgb, linear_pixel_to_lab, srgb_to_linear};
+use crate::image::color::{lab_pixel_to_srgb, linear_pixel_to_lab, srgb_to_linear, LUMA};
 use crate::image::filter::{gaussian_blur, shrunk_blur};
 use crate::image::noise::{smoothstep, Layer};
 use super::layer::{self, Relief};
@@ -218,6 +218,24 @@ pub fn transfer_colour(texture_lab: &mut Image, photo_lab: &Image, mask: &Mask, 
         }
         px[0] = px[0].clamp(0.0, 100.0);
     });
+}
+
+/// A texture whose colour darkens the photo's own (a photo-relative
+/// class, [`super::DecayClass::photo_relative`]), in Lab: each texel's
+/// linear luminance over that of `surface` (the texture's undecayed
+/// surface) scales the photo's linear colour there, divided by the
+/// `shading` that [`composite`] applies again.
+pub fn darkened_photo(photo: &Image, texture: &Image, shading: &Image, surface: [f32; 3]) -> Image {
+    let luma = |c: &[f32]| (0..3).map(|k| LUMA[k] * srgb_to_linear(c[k])).sum::<f32>();
+    let reference = luma(&surface);
+    let (w, h) = photo.size();
+    let mut out = Image::new(w, h, 3);
+    out.data_mut().par_chunks_mut(3).enumerate().for_each(|(i, o)| {
+        let (p, t) = (&photo.data()[i * 3..i * 3 + 3], &texture.data()[i * texture.channels()..]);
+        let f = (luma(t) / reference).min(1.0) / shading.data()[i].max(0.05);
+        o.copy_from_slice(&linear_pixel_to_lab([0, 1, 2].map(|c| srgb_to_linear(p[c]) * f)));
+    });
+    out
 }
 
 /// The mean Lab chroma (sqrt(a^2 + b^2)) of `lab` over `mask`: about 5 on

@@ -149,15 +149,6 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         None => texture::generate(params.class, seed, 0, 0, w, h)?,
     };
     let photo_lab = to_lab(photo);
-    let mut texture_lab = to_lab(&texture);
-    let strength = params.class.colour_transfer(composite::mean_chroma(&photo_lab, &mask));
-    if strength > 0.0 {
-        composite::transfer_colour(&mut texture_lab, &photo_lab, &mask, strength);
-        if params.class == DecayClass::Peeling {
-            // The stone or plaster under a spalled scale is fresher, so lighter.
-            texture_lab.data_mut().chunks_exact_mut(3).for_each(|px| px[0] = (px[0] + FRESH_LIFT * strength).min(100.0));
-        }
-    }
     let onset = texture.select_channels(3..4);
     // The form (shading) and the fine relief both light the decay; the
     // highlight is removed from their product as the class's gloss says.
@@ -166,6 +157,20 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     let mut lit = form.clone();
     lit.data_mut().iter_mut().zip(relief.data()).for_each(|(s, r)| *s *= r);
     let shading = shading::with_gloss(&lit, &mask, params.class.gloss());
+    let texture_lab = if params.class.photo_relative() && inputs.texture.is_none() {
+        composite::darkened_photo(photo, &texture, &shading, texture::CRACKED_SURFACE)
+    } else {
+        let mut texture_lab = to_lab(&texture);
+        let strength = params.class.colour_transfer(composite::mean_chroma(&photo_lab, &mask));
+        if strength > 0.0 {
+            composite::transfer_colour(&mut texture_lab, &photo_lab, &mask, strength);
+            if params.class == DecayClass::Peeling {
+                // The stone or plaster under a spalled scale is fresher, so lighter.
+                texture_lab.data_mut().chunks_exact_mut(3).for_each(|px| px[0] = (px[0] + FRESH_LIFT * strength).min(100.0));
+            }
+        }
+        texture_lab
+    };
     let (degree, draws) = match inputs.degree {
         Some(painting) => (degree::from_painting(painting, &mask)?, 0),
         None => {

@@ -95,6 +95,15 @@ impl DecayClass {
         }
     }
 
+    /// Whether the texture's colour is a darkening of the photo's own
+    /// rather than a material of its own: a crack is a shadowed gap in
+    /// the object's paint or stone, so it takes the object's hue (dark
+    /// red-brown in orange paint, dark grey in white stone). A fixed gap
+    /// colour read as ink lines drawn on the photo.
+    pub fn photo_relative(self) -> bool {
+        self == DecayClass::Cracked
+    }
+
     /// The class's name on the command line.
     pub fn name(self) -> &'static str {
         match self {
@@ -271,9 +280,9 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     [c[0], c[1], c[2], onset]
 }
 
-/// Cracked paint or plaster: a warped cellular crack network, large cells
-/// split by a finer network in places, crack width varying along the
-/// crack, tile edges curled up (lighter), fine grain. Only the cracks
+/// Cracked paint or plaster: a warped cellular crack network (exact
+/// Voronoi edges), large cells split by a finer network in places, crack
+/// width varying along the crack. Only the cracks
 /// appear on a photo, their cores first and their edges later, so they
 /// widen as the degree rises; the crazed surface between them is the
 /// photo's own (it never appears: replacing it flattened the object's
@@ -282,26 +291,29 @@ fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let wx = x + 7.0 * s * g.layer(0).fbm(x, y, 30.0 * s, 3, 0.5);
     let wy = y + 7.0 * s * g.layer(1).fbm(x + 91.0, y, 30.0 * s, 3, 0.5);
-    let big = g.layer(2).worley(wx, wy, 40.0 * s);
-    let small = g.layer(3).worley(wx, wy, 17.0 * s);
+    let (big, _) = g.layer(2).voronoi_edge(wx, wy, 40.0 * s);
+    let (small, _) = g.layer(3).voronoi_edge(wx, wy, 17.0 * s);
     let split = smoothstep(-0.1, 0.2, g.layer(4).fbm(x, y, 90.0 * s, 3, 0.5));
-    let width = 1.1 + 0.7 * g.layer(5).fbm(x, y, 25.0, 2, 0.5);
-    let big_crack = 1.0 - smoothstep(width * 0.6, width + 0.6, big.border());
-    let small_crack = split * (1.0 - smoothstep(0.2, 0.6 + 0.3 * width, small.border()));
-    let crack = big_crack.max(small_crack);
-    let edge = big.border().min(if split > 0.5 { small.border() } else { f32::MAX });
-    let curl = smoothstep(6.0, 1.5, edge) * (1.0 - crack);
+    // Main cracks gape up to about 2 px, finer ones are hairlines.
+    let width = 0.8 + 0.5 * g.layer(5).fbm(x, y, 25.0, 2, 0.5);
+    let big_crack = 1.0 - smoothstep(width * 0.5, width + 0.7, big);
+    let small_crack = split * (1.0 - smoothstep(0.1, 0.45 + 0.3 * width, small));
+    let crack = big_crack.max(0.85 * small_crack);
     let grain = g.layer(6).white(x as i32, y as i32) - 0.5;
-    let mottle = g.layer(7).fbm(x, y, 12.0, 3, 0.5);
-    let tone = (0.95 + 0.08 * (big.id - 0.5) + 0.05 * mottle + 0.06 * grain) * (1.0 + 0.1 * curl);
-    let surface = if g.style.variant < 0.5 { [0.74, 0.70, 0.66] } else { [0.70, 0.67, 0.60] };
-    // Gaps are darkest at their core and lighter towards their edges.
-    let gap = [0.2, 0.17, 0.14].map(|v| v * (0.7 + 1.4 * (1.0 - crack)));
-    let c = if crack > 0.35 { gap } else { surface.map(|c| c * tone) };
+    // A gap is a dark grey, darkest at its core, fading into the surface
+    // at its edges (anti-aliased); its walls' light and shade come from
+    // the layer relief. On a photo it darkens the photo's own colour
+    // (see [`DecayClass::photo_relative`]).
+    let gap = [0.42, 0.40, 0.37].map(|v| v * (0.8 + 0.6 * (1.0 - crack) + 0.1 * grain));
+    let c = mix3(CRACKED_SURFACE, gap, smoothstep(0.05, 0.6, crack));
     let spread = g.layer(8).fbm(x, y, 100.0 * s, 3, 0.5);
-    let onset = if crack > 0.35 { (0.2 - 0.45 * spread + 0.35 * (1.0 - crack)).clamp(0.02, 0.95) } else { NEVER };
+    let onset = if crack > 0.05 { (0.2 - 0.45 * spread + 0.35 * (1.0 - crack)).clamp(0.02, 0.95) } else { NEVER };
     [c[0], c[1], c[2], onset]
 }
+
+/// The crazed surface of [`cracked`] between its cracks (sRGB): what a
+/// crack's colour is measured against when it darkens a photo.
+pub const CRACKED_SURFACE: [f32; 3] = [0.72, 0.69, 0.64];
 
 /// Moss: cushions of tiny bumps (cellular noise at 3-4 px: lit yellow-green
 /// tips, dark green gaps) in clumps from warped fBm, darker where a clump
