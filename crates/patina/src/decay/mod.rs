@@ -62,9 +62,13 @@ impl DecayParams {
     }
 }
 
-/// How much lighter (L*) the material under a spalled surface scale is
-/// than the weathered surface (peeling on an unpainted object).
-const FRESH_LIFT: f32 = 6.0;
+/// How the material under a peeled surface scale differs from the
+/// surface of an unpainted object, as (L*, b*) shifts: the body under a
+/// coat of limewash or a weathered skin is darker and warmer (raw
+/// plaster, fresh sandstone), so the flakes read as a layer gone, not as
+/// a stain. Tried: lighter (fresher) stone under a grey object, +6 L*; on
+/// a dimly lit white statue it was invisible.
+const UNDER_THE_SCALE: [f32; 2] = [-10.0, 5.0];
 
 /// What [`sequence`] needs, computed once per photo.
 pub struct Prepared {
@@ -165,10 +169,14 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         if strength > 0.0 {
             composite::transfer_colour(&mut texture_lab, &photo_lab, &mask, strength);
             if params.class == DecayClass::Peeling {
-                // The stone or plaster under a spalled scale is fresher, so lighter.
-                texture_lab.data_mut().chunks_exact_mut(3).for_each(|px| px[0] = (px[0] + FRESH_LIFT * strength).min(100.0));
+                let shift = UNDER_THE_SCALE.map(|v| v * strength);
+                texture_lab.data_mut().chunks_exact_mut(3).for_each(|px| {
+                    px[0] = (px[0] + shift[0]).clamp(0.0, 100.0);
+                    px[2] += shift[1];
+                });
             }
         }
+        composite::adapt_to_scene(&mut texture_lab, &photo_lab);
         texture_lab
     };
     let (degree, draws) = match inputs.degree {

@@ -88,7 +88,7 @@ impl DecayClass {
     /// cushion is thick and shades its own far side.
     pub fn relief(self) -> Relief {
         match self {
-            DecayClass::Peeling => Relief { height: -2.0, softness: 0.7, strength: 1.0, shadow: 0.6 },
+            DecayClass::Peeling => Relief { height: -2.5, softness: 0.7, strength: 1.2, shadow: 0.65 },
             DecayClass::Cracked => Relief { height: -1.2, softness: 0.6, strength: 0.8, shadow: 0.5 },
             DecayClass::Rust => Relief { height: 0.8, softness: 1.2, strength: 0.5, shadow: 0.25 },
             DecayClass::Mossy => Relief { height: 2.0, softness: 1.5, strength: 0.6, shadow: 0.35 },
@@ -270,10 +270,10 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let mottle = g.layer(3).fbm(x, y, 16.0, 4, 0.6);
     let stain = smoothstep(0.1, 0.45, g.layer(4).fbm(x, y, 22.0 * s, 4, 0.55));
     let pits = g.layer(5).worley(x, y, 11.0);
-    let pit = smoothstep(2.2, 0.8, pits.f1) * (pits.id < 0.12) as u8 as f32;
+    let pit = smoothstep(2.2, 0.8, pits.f1) * (pits.id < 0.06) as u8 as f32;
     let primer = mix3([0.40, 0.35, 0.30], [0.52, 0.46, 0.39], 0.5 + 0.7 * mottle);
     let mut c = mix3(primer, [0.46, 0.25, 0.12], 0.75 * stain);
-    c = mix3(c, [0.17, 0.11, 0.08], 0.8 * pit);
+    c = mix3(c, [0.30, 0.17, 0.10], 0.7 * pit);
     let fine = g.layer(8).fbm(x, y, 1.5, 2, 0.5);
     c = c.map(|v| v * (1.0 + 0.07 * grain + 0.08 * fine));
     let onset = if onset < 0.95 { onset.clamp(0.02, 0.95) } else { NEVER };
