@@ -138,11 +138,10 @@ fn textures_are_seeded_diverse_and_generated_by_parts() {
         }
         // Diversity: two seeds must differ at least as much as two far-apart
         // windows of one texture do (independent samples of the same class);
-        // 0.8 of that allows for the seeds sharing a palette.
-        let mad = |p: &Image, q: &Image| {
-            let (p, q) = (p.select_channels(0..3), q.select_channels(0..3));
-            p.data().iter().zip(q.data()).map(|(x, y)| (x - y).abs()).sum::<f32>() / p.data().len() as f32
-        };
+        // 0.8 of that allows for the seeds sharing a palette. Colour and
+        // onset both count: peeling's and cracked's colour is mostly one
+        // substrate or gap, and their layout lives in the onset.
+        let mad = |p: &Image, q: &Image| p.data().iter().zip(q.data()).map(|(x, y)| (x - y).abs()).sum::<f32>() / p.data().len() as f32;
         let b = generate(class, 2, 0, 0, 192, 192).unwrap();
         let far = generate(class, 1, 5000, -7000, 192, 192).unwrap();
         let (seeds, windows) = (mad(&a, &b), mad(&a, &far));
@@ -488,4 +487,91 @@ fn an_exemplar_decays_oldest_first_with_its_own_stain_and_without_its_lighting()
     let (before, after) = (nonstationarity(&lit), nonstationarity(&relit.texture.select_channels(0..3)));
     assert!(after <= 0.5 * before, "the exemplar's lighting came along: {after:.3} against {before:.3}");
     assert!(relit.lighting.is_some());
+}
+
+/// The cylinder of [`photo`] painted in flat `albedo` (linear) instead of orange.
+fn photo_in(albedo: [f32; 3]) -> Image {
+    let (orange, mask) = (photo(), object());
+    Image::from_fn(W, H, 3, |x, y, p| {
+        if mask.get(x, y) {
+            let u = (x as f32 - 30.0) / 100.0 * std::f32::consts::PI;
+            let shade = 0.25 + 0.75 * (u - 0.4).sin().max(0.0);
+            p.copy_from_slice(&albedo.map(|a| linear_to_srgb(a * shade)));
+        } else {
+            p.copy_from_slice(&orange.pixel(x, y)[..3]);
+        }
+    })
+}
+
+/// `class` decayed to D = 1 everywhere on the object (a painted degree
+/// map), in Lab, with the texels that show there (onset below 1, on the
+/// lit half of the cylinder where the colours are clear).
+fn fully_decayed(input: &Image, class: DecayClass) -> (Image, Vec<usize>) {
+    let mask = object();
+    let ones = Image::from_fn(W, H, 1, |_, _, p| p[0] = 1.0);
+    let inputs = Inputs { mask: Some(&mask), degree: Some(&ones), ..Default::default() };
+    let prep = decay::prepare(input, inputs, &DecayParams::new(class), 5).unwrap();
+    let frame = decay::sequence(&prep, 1, 5, None).unwrap().remove(0);
+    let shown = (0..W * H)
+        .filter(|&i| mask.bits()[i] && (45..95).contains(&(i % W)) && prep.texture.data()[i * 4 + 3] < 0.9)
+        .collect();
+    (to_lab(&frame.image), shown)
+}
+
+fn mean_lab(lab: &Image, pixels: &[usize]) -> [f32; 3] {
+    let n = pixels.len().max(1) as f32;
+    [0, 1, 2].map(|c| pixels.iter().map(|&i| lab.data()[i * 3 + c]).sum::<f32>() / n)
+}
+
+/// Peeling takes its substrate from the object: a painted (saturated)
+/// object shows the texture's grey-brown primed metal where the paint is
+/// gone, far from the paint's colour; a grey (unpainted) one shows its
+/// own body, a little darker and warmer, close to its own colour.
+#[test]
+fn peeling_shows_primer_under_paint_and_the_objects_own_body_under_grey_stone() {
+    let orange = photo();
+    let (out, shown) = fully_decayed(&orange, DecayClass::Peeling);
+    assert!(shown.len() > 300, "too few flakes to judge: {}", shown.len());
+    let (peeled, paint) = (mean_lab(&out, &shown), mean_lab(&to_lab(&orange), &shown));
+    let chroma = |l: [f32; 3]| l[1].hypot(l[2]);
+    assert!(chroma(paint) > 40.0 && chroma(peeled) < 20.0, "primer under orange paint: chroma {} -> {}", chroma(paint), chroma(peeled));
+    let grey = photo_in([0.4, 0.4, 0.4]);
+    let (out, shown) = fully_decayed(&grey, DecayClass::Peeling);
+    let (peeled, stone) = (mean_lab(&out, &shown), mean_lab(&to_lab(&grey), &shown));
+    let de = ((peeled[0] - stone[0]).powi(2) + (peeled[1] - stone[1]).powi(2) + (peeled[2] - stone[2]).powi(2)).sqrt();
+    assert!(de < 16.0 && peeled[0] < stone[0] - 3.0, "grey stone's body: {stone:?} -> {peeled:?} (dE {de})");
+    assert!(chroma(peeled) < 12.0, "the body of grey stone stays greyish: {peeled:?}");
+}
+
+/// A crack is a shadowed gap in the object's own paint: on orange paint it
+/// is a darker orange-brown (the paint's hue), not a fixed dark grey; on
+/// grey stone it is a darker grey.
+#[test]
+fn cracks_darken_the_objects_own_colour() {
+    let hue = |l: [f32; 3]| l[2].atan2(l[1]).to_degrees();
+    let orange = photo();
+    let (out, shown) = fully_decayed(&orange, DecayClass::Cracked);
+    let core: Vec<usize> = shown.iter().copied().filter(|&i| out.data()[i * 3] < to_lab(&orange).data()[i * 3] - 15.0).collect();
+    assert!(core.len() > 100, "cracks should darken the paint: {} pixels", core.len());
+    let (crack, paint) = (mean_lab(&out, &core), mean_lab(&to_lab(&orange), &core));
+    assert!((hue(crack) - hue(paint)).abs() < 20.0 && crack[1].hypot(crack[2]) > 15.0, "crack {crack:?} in paint {paint:?}");
+    let grey = photo_in([0.4, 0.4, 0.4]);
+    let (out, shown) = fully_decayed(&grey, DecayClass::Cracked);
+    let crack = mean_lab(&out, &shown);
+    assert!(crack[1].hypot(crack[2]) < 6.0, "cracks in grey stone are grey: {crack:?}");
+}
+
+/// Rust's own orange is held to the scene's saturation: on a grey object
+/// in a grey scene it is a muted brown, on the orange object it keeps its
+/// colour.
+#[test]
+fn decay_is_no_more_saturated_than_its_scene() {
+    let max_chroma = |input: &Image| {
+        let (out, shown) = fully_decayed(input, DecayClass::Rust);
+        shown.iter().map(|&i| out.data()[i * 3 + 1].hypot(out.data()[i * 3 + 2])).fold(0f32, f32::max)
+    };
+    let grey = Image::from_fn(W, H, 3, |x, _, p| p.fill(0.35 + 0.3 * x as f32 / W as f32));
+    let (in_grey, in_orange) = (max_chroma(&grey), max_chroma(&photo()));
+    assert!(in_grey < 32.0, "rust in a grey scene: chroma up to {in_grey}");
+    assert!(in_orange > in_grey + 8.0, "rust on orange paint keeps its colour: {in_orange} vs {in_grey}");
 }
