@@ -154,6 +154,10 @@ pub fn maturity(degree: f32, onset: f32) -> f32 {
     smoothstep(onset, (onset + MATURING).min(1.0), degree)
 }
 
+/// Gaussian (pixels) that anti-aliases the edges of decay that appears
+/// whole ([`Layers::young`] 1).
+const EDGE_FILTER: f32 = 0.6;
+
 /// Half-width of the onset transition in degree units.
 const ONSET_SOFTNESS: f32 = 0.04;
 
@@ -247,46 +251,25 @@ const SCENE_CHROMA_HEADROOM: f32 = 1.25;
 const MIN_CHROMA_CAP: f32 = 28.0;
 
 /// Adapt a decay texture's own colours (Lab, in place) to the photo's
-/// light: the texture is a material seen under neutral light, the photo
-/// was taken under its own. Two corrections (a von Kries-style white
-/// point shift and a saturation ceiling):
-/// - the photo's white point (the mean a*, b* of its brightest tenth
-///   among its near-neutral pixels) is added to each texel in proportion
-///   to its lightness, so a bluish overcast cools the rust too;
-/// - chroma is compressed softly, C' = cap tanh(C / cap), with the cap at
-///   1.25 x the photo's 95th-percentile chroma (at least 28): rust and
-///   moss under a grey sky are no more saturated than the brightest
-///   things in that scene, while on an orange hydrant in sunlight they
-///   keep their colour.
+/// light: the texture is a material seen under bright neutral light, and
+/// its chroma is compressed softly, C' = cap tanh(C / cap), with the cap
+/// at 1.25 x the photo's 95th-percentile chroma (at least 28): rust and
+/// moss under a grey sky are no more saturated than the brightest things
+/// in that scene, while on an orange hydrant in sunlight they keep their
+/// colour. Tried: also shifting a*b* by the photo's white point (von
+/// Kries); under a bluish white it turned rust pink.
 pub fn adapt_to_scene(texture_lab: &mut Image, photo_lab: &Image) {
-    let chroma: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[1].hypot(p[2])).collect();
-    let quantile = |v: &mut Vec<f32>, q: f32| {
-        if v.is_empty() {
-            return 0.0;
-        }
-        let k = ((v.len() - 1) as f32 * q) as usize;
-        *v.select_nth_unstable_by(k, f32::total_cmp).1
-    };
-    let cap = (SCENE_CHROMA_HEADROOM * quantile(&mut chroma.clone(), SCENE_CHROMA_QUANTILE)).max(MIN_CHROMA_CAP);
-    let mut neutral_l: Vec<f32> =
-        photo_lab.data().chunks_exact(3).zip(&chroma).filter(|(_, &c)| c < 15.0).map(|(p, _)| p[0]).collect();
-    let bright = quantile(&mut neutral_l, 0.9);
-    let (mut wa, mut wb, mut n) = (0f64, 0f64, 0usize);
-    for (p, &c) in photo_lab.data().chunks_exact(3).zip(&chroma) {
-        if c < 15.0 && p[0] >= bright && p[0] > 20.0 {
-            wa += p[1] as f64;
-            wb += p[2] as f64;
-            n += 1;
-        }
-    }
-    let white = if n > 0 { [(wa / n as f64) as f32, (wb / n as f64) as f32] } else { [0.0; 2] };
+    let mut chroma: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[1].hypot(p[2])).collect();
+    let k = ((chroma.len().max(1) - 1) as f32 * SCENE_CHROMA_QUANTILE) as usize;
+    let scene = if chroma.is_empty() { 0.0 } else { *chroma.select_nth_unstable_by(k, f32::total_cmp).1 };
+    let cap = (SCENE_CHROMA_HEADROOM * scene).max(MIN_CHROMA_CAP);
     texture_lab.data_mut().par_chunks_mut(3).for_each(|px| {
-        let k = px[0] / 100.0;
-        let (a, b) = (px[1] + k * white[0], px[2] + k * white[1]);
-        let c = a.hypot(b);
-        let scale = if c > 1e-6 { cap * (c / cap).tanh() / c } else { 1.0 };
-        px[1] = a * scale;
-        px[2] = b * scale;
+        let c = px[1].hypot(px[2]);
+        if c > 1e-6 {
+            let scale = cap * (c / cap).tanh() / c;
+            px[1] *= scale;
+            px[2] *= scale;
+        }
     });
 }
 
@@ -338,6 +321,12 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
     opacity.data_mut().iter_mut().zip(degree.data()).zip(layers.onset.data()).for_each(|((v, &d), &o)| {
         *v *= young + (1.0 - young) * maturity(d, o);
     });
+    if young >= 1.0 {
+        // Whole flakes and open cracks switch on texel by texel: their
+        // edges are anti-aliased (never past the decay's own extent, D > 0).
+        opacity = gaussian_blur(&opacity, EDGE_FILTER);
+        opacity.data_mut().iter_mut().zip(degree.data()).for_each(|(v, &d)| *v = if d > 0.0 { v.min(1.0) } else { 0.0 });
+    }
     let lighting = if channels >= 3 { layer::factor(&opacity, degree, &layers.relief, layers.light) } else { None };
     let mut out = photo.clone();
     out.data_mut().par_chunks_mut(w * channels).enumerate().for_each(|(y, row)| {

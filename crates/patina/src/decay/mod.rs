@@ -183,7 +183,9 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         Some(painting) => (degree::from_painting(painting, &mask)?, 0),
         None => {
             let affinity = degree::affinity(params.class, &form, &relief, &mask);
-            degree::initial(&mask, params.area, params.continuity, affinity.as_ref(), seed)?
+            // Each class lays out its own patches (one seed gave every class the same blobs).
+            let layout = crate::rng::derive(seed, &[0xdec, params.class as u64]);
+            degree::initial(&mask, params.area, params.continuity, affinity.as_ref(), layout)?
         }
     };
     let light = layer::light_direction(&form, &mask);

@@ -71,12 +71,14 @@ impl DecayClass {
     }
 
     /// Opacity of a texel in its first frame ([`super::composite::maturity`]):
-    /// young rust is a translucent film and young moss sparse, so they
-    /// start at 0.6 and thicken; a flake is gone or not, and a crack is
-    /// open or not, so they appear whole.
+    /// young moss is sparse and young rust a thin film, so they start
+    /// part-way and thicken (rust from 0.75: at 0.6 over white stone it
+    /// read as a pink wash); a flake is gone or not, and a crack is open
+    /// or not, so they appear whole.
     pub fn young_opacity(self) -> f32 {
         match self {
-            DecayClass::Rust | DecayClass::Mossy => 0.6,
+            DecayClass::Rust => 0.75,
+            DecayClass::Mossy => 0.6,
             DecayClass::Peeling | DecayClass::Cracked => 1.0,
         }
     }
@@ -216,25 +218,23 @@ impl Generator {
 }
 
 /// Rust: domain-warped layers (the swirls of corroded_rust_swirls) mapped
-/// through an oxide palette with thin dark contour lines, a flaky dark
+/// through an oxide palette (no contour lines: reviewers read them as banding), a flaky dark
 /// crust, bright granular blooms and pixel grain; onset lowest in the
 /// deepest corrosion, ragged at small scale.
 fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let field = g.layer(0).warped(x, y, 80.0 * s, 6, 55.0 * s);
     let depth = (0.42 + 0.85 * field).clamp(0.0, 1.0);
-    // Growth rings: thin dark lines along the contours of the field.
-    let ring = (depth * 45.0 + 1.5 * g.layer(1).fbm(x, y, 12.0, 2, 0.5)).sin();
-    let contour = smoothstep(0.75, 0.98, ring) * smoothstep(0.25, 0.5, depth);
     let grain = g.layer(2).white(x as i32, y as i32) - 0.5;
     let fine = g.layer(3).fbm(x, y, 3.0, 3, 0.6);
     let crust = smoothstep(0.1, 0.3, g.layer(4).fbm(x, y, 14.0 * s, 4, 0.6) - 0.6 * (depth - 0.5));
     let bloom = smoothstep(0.35, 0.55, g.layer(6).fbm(x, y, 6.0 * s, 3, 0.6)) * smoothstep(0.3, 0.6, depth);
-    // Palettes from the sample photos: dark scale, red-brown, orange, ochre.
+    // Palettes from the sample photos: dark scale, red-brown, orange (a
+    // pale ochre top stop made gold streaks where the field saturates).
     let red = if g.style.variant < 0.5 { [0.36, 0.12, 0.05] } else { [0.30, 0.13, 0.07] };
-    let stops = [(0.0, [0.09, 0.05, 0.03]), (0.3, red), (0.58, [0.60, 0.25, 0.08]), (0.8, [0.74, 0.42, 0.14]), (0.95, [0.84, 0.60, 0.30])];
+    let stops = [(0.0, [0.09, 0.05, 0.03]), (0.3, red), (0.58, [0.60, 0.25, 0.08]), (0.85, [0.70, 0.38, 0.13])];
     let mut c = ramp(&stops, depth + 0.1 * fine);
-    c = mix3(c, [0.16, 0.08, 0.04], 0.8 * crust.max(0.6 * contour));
+    c = mix3(c, [0.16, 0.08, 0.04], 0.8 * crust);
     c = mix3(c, [0.82, 0.42, 0.12], 0.7 * bloom * (1.0 - crust));
     let shade = 1.0 + 0.22 * grain + 0.1 * fine;
     c = c.map(|v| v * shade);
@@ -251,7 +251,8 @@ fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
 /// slow patch field at that point plus its own random offset, so the
 /// border advances by chips breaking off, not by a smooth front. Where the
 /// paint is gone the texture shows the substrate: here bare primed metal,
-/// a warm grey-brown primer mottled with rust stains and pitted grain; on
+/// a dark grey primer mottled with rust stains, rustier where it was bared
+/// first (the lowest onsets), and pitted grain; on
 /// an unpainted (grey) object compositing moves it to the object's own
 /// colour (see [`DecayClass::colour_transfer`]). The step at each border,
 /// its lit lip and cast shadow, comes from the layer relief
@@ -271,8 +272,10 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let stain = smoothstep(0.1, 0.45, g.layer(4).fbm(x, y, 22.0 * s, 4, 0.55));
     let pits = g.layer(5).worley(x, y, 11.0);
     let pit = smoothstep(2.2, 0.8, pits.f1) * (pits.id < 0.06) as u8 as f32;
-    let primer = mix3([0.40, 0.35, 0.30], [0.52, 0.46, 0.39], 0.5 + 0.7 * mottle);
-    let mut c = mix3(primer, [0.46, 0.25, 0.12], 0.75 * stain);
+    let primer = mix3([0.27, 0.25, 0.23], [0.38, 0.35, 0.31], 0.5 + 0.7 * mottle);
+    // Metal bared first has rusted longest: the oldest chips bloom orange-brown.
+    let rusted = (0.8 * stain + 0.6 * smoothstep(0.35, 0.05, onset)).min(1.0);
+    let mut c = mix3(primer, [0.42, 0.22, 0.10], 0.8 * rusted);
     c = mix3(c, [0.30, 0.17, 0.10], 0.7 * pit);
     let fine = g.layer(8).fbm(x, y, 1.5, 2, 0.5);
     c = c.map(|v| v * (1.0 + 0.07 * grain + 0.08 * fine));
@@ -294,10 +297,11 @@ fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let (big, _) = g.layer(2).voronoi_edge(wx, wy, 40.0 * s);
     let (small, _) = g.layer(3).voronoi_edge(wx, wy, 17.0 * s);
     let split = smoothstep(-0.1, 0.2, g.layer(4).fbm(x, y, 90.0 * s, 3, 0.5));
-    // Main cracks gape up to about 2 px, finer ones are hairlines.
+    // Main cracks gape up to about 2 px; finer ones are lighter, but no
+    // thinner than a pixel (thinner ones broke into dotted chains).
     let width = 0.8 + 0.5 * g.layer(5).fbm(x, y, 25.0, 2, 0.5);
     let big_crack = 1.0 - smoothstep(width * 0.5, width + 0.7, big);
-    let small_crack = split * (1.0 - smoothstep(0.1, 0.45 + 0.3 * width, small));
+    let small_crack = split * (1.0 - smoothstep(0.3, 0.9 + 0.3 * width, small));
     let crack = big_crack.max(0.85 * small_crack);
     let grain = g.layer(6).white(x as i32, y as i32) - 0.5;
     // A gap is a dark grey, darkest at its core, fading into the surface
