@@ -182,10 +182,11 @@ pub fn weight(degree: f32, onset: f32) -> f32 {
 /// Colour transfer (Reinhard, Ashikhmin, Gooch, Shirley 2001), in Lab (the
 /// paper works in l-alpha-beta; Lab is as decorrelated for this purpose):
 /// per channel, move the texture's mean and standard deviation to those
-/// of the photo inside the mask. The luminance contrast is scaled by
+/// of the photo inside the mask, the texture's measured over the texels
+/// that can appear (`onset` below [`super::texture::NEVER`]). The luminance contrast is scaled by
 /// 0.7 to 1 (see [`MIN_CONTRAST`]). `strength`
 /// blends between the texture's own colours (0) and the full transfer (1).
-pub fn transfer_colour(texture_lab: &mut Image, photo_lab: &Image, mask: &Mask, strength: f32) {
+pub fn transfer_colour(texture_lab: &mut Image, onset: &Image, photo_lab: &Image, mask: &Mask, strength: f32) {
     let stats = |img: &Image, keep: &dyn Fn(usize) -> bool| {
         let mut acc = [[0f64; 2]; 3];
         let mut n = 0f64;
@@ -203,7 +204,8 @@ pub fn transfer_colour(texture_lab: &mut Image, photo_lab: &Image, mask: &Mask, 
             (mean as f32, ((s2 / n.max(1.0) - mean * mean).max(0.0).sqrt()) as f32)
         })
     };
-    let from = stats(texture_lab, &|_| true);
+    // Only texels that can appear speak for the texture (peeling's paint never does).
+    let from = stats(texture_lab, &|i| onset.data()[i] < super::texture::NEVER);
     let to = stats(photo_lab, &|i| mask.bits()[i]);
     let scale: Vec<f32> = (0..3)
         .map(|c| {

@@ -167,7 +167,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         let mut texture_lab = to_lab(&texture);
         let strength = params.class.colour_transfer(composite::mean_chroma(&photo_lab, &mask));
         if strength > 0.0 {
-            composite::transfer_colour(&mut texture_lab, &photo_lab, &mask, strength);
+            composite::transfer_colour(&mut texture_lab, &onset, &photo_lab, &mask, strength);
             if params.class == DecayClass::Peeling {
                 let shift = UNDER_THE_SCALE.map(|v| v * strength);
                 texture_lab.data_mut().chunks_exact_mut(3).for_each(|px| {

@@ -279,8 +279,13 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     c = mix3(c, [0.30, 0.17, 0.10], 0.7 * pit);
     let fine = g.layer(8).fbm(x, y, 1.5, 2, 0.5);
     c = c.map(|v| v * (1.0 + 0.07 * grain + 0.08 * fine));
-    let onset = if onset < 0.95 { onset.clamp(0.02, 0.95) } else { NEVER };
-    [c[0], c[1], c[2], onset]
+    if onset >= 0.95 {
+        // Paint that stays: never shown on a photo (the photo's own paint
+        // is), drawn as a cream coat so the texture alone shows its flakes.
+        let tone = 0.93 + 0.05 * g.layer(9).fbm(x, y, 40.0 * s, 3, 0.5) + 0.03 * grain;
+        return [0.80 * tone, 0.77 * tone, 0.70 * tone, NEVER];
+    }
+    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
 }
 
 /// Cracked paint or plaster: a warped cellular crack network (exact
