@@ -91,7 +91,7 @@ impl DecayClass {
     pub fn relief(self) -> Relief {
         match self {
             DecayClass::Peeling => Relief { height: -2.5, softness: 0.7, strength: 1.2, shadow: 0.65 },
-            DecayClass::Cracked => Relief { height: -1.2, softness: 0.6, strength: 0.8, shadow: 0.5 },
+            DecayClass::Cracked => Relief { height: -1.6, softness: 0.6, strength: 1.0, shadow: 0.55 },
             DecayClass::Rust => Relief { height: 0.8, softness: 1.2, strength: 0.5, shadow: 0.25 },
             DecayClass::Mossy => Relief { height: 2.0, softness: 1.5, strength: 0.6, shadow: 0.35 },
         }
@@ -299,8 +299,8 @@ fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let wx = x + 7.0 * s * g.layer(0).fbm(x, y, 30.0 * s, 3, 0.5);
     let wy = y + 7.0 * s * g.layer(1).fbm(x + 91.0, y, 30.0 * s, 3, 0.5);
-    let (big, _) = g.layer(2).voronoi_edge(wx, wy, 40.0 * s);
-    let (small, _) = g.layer(3).voronoi_edge(wx, wy, 17.0 * s);
+    let (big_edge, small_edge) = (g.layer(2).voronoi_edge(wx, wy, 40.0 * s), g.layer(3).voronoi_edge(wx, wy, 17.0 * s));
+    let (big, small) = (big_edge.distance, small_edge.distance);
     let split = smoothstep(-0.1, 0.2, g.layer(4).fbm(x, y, 90.0 * s, 3, 0.5));
     // Main cracks gape up to about 2 px; finer ones are lighter, but no
     // thinner than a pixel (thinner ones broke into dotted chains).
@@ -316,7 +316,13 @@ fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let gap = [0.42, 0.40, 0.37].map(|v| v * (0.8 + 0.6 * (1.0 - crack) + 0.1 * grain));
     let c = mix3(CRACKED_SURFACE, gap, smoothstep(0.05, 0.6, crack));
     let spread = g.layer(8).fbm(x, y, 100.0 * s, 3, 0.5);
-    let onset = if crack > 0.05 { (0.2 - 0.45 * spread + 0.35 * (1.0 - crack)).clamp(0.02, 0.95) } else { NEVER };
+    // A crack opens a whole border segment at a time (the segment's own
+    // onset, from its two cells), main cracks before the finer network,
+    // then widens: opening texel by texel along the degree front drew
+    // bramble-like spurs.
+    let segment = if big_crack >= 0.85 * small_crack { big_edge.segment() } else { 0.15 + small_edge.segment() };
+    let onset = 0.15 - 0.45 * spread + 0.3 * (segment - 0.5) + 0.15 * (1.0 - crack);
+    let onset = if crack > 0.05 { onset.clamp(0.02, 0.95) } else { NEVER };
     [c[0], c[1], c[2], onset]
 }
 

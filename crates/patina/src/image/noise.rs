@@ -136,8 +136,9 @@ impl Layer {
     /// distance to its bisectors with every point of the 5 x 5 cells
     /// around it). Half the F2 - F1 gap ([`Cellular::border`]) falls short
     /// of it near a junction of three cells, which drew cracks with black
-    /// wedges where they meet.
-    pub fn voronoi_edge(self, x: f32, y: f32, cell: f32) -> (f32, f32) {
+    /// wedges where they meet. Also the hash of the cell across that
+    /// border, so a border segment can be told by its two cells.
+    pub fn voronoi_edge(self, x: f32, y: f32, cell: f32) -> VoronoiEdge {
         let (cx, cy) = (x / cell, y / cell);
         let (ix, iy) = (cx.floor() as i32, cy.floor() as i32);
         let (mut best, mut near, mut at) = (f32::MAX, (0.0, 0.0), (0, 0));
@@ -150,7 +151,7 @@ impl Layer {
                 }
             }
         }
-        let mut edge = f32::MAX;
+        let (mut edge, mut across) = (f32::MAX, at);
         for j in at.1 - 2..=at.1 + 2 {
             for i in at.0 - 2..=at.0 + 2 {
                 if (i, j) == at {
@@ -160,12 +161,34 @@ impl Layer {
                 let (rx, ry) = (px - cx, py - cy);
                 let (dx, dy) = (rx - near.0, ry - near.1);
                 let len = (dx * dx + dy * dy).sqrt();
-                if len > 1e-6 {
-                    edge = edge.min((0.5 * (near.0 + rx) * dx + 0.5 * (near.1 + ry) * dy) / len);
+                let d = (0.5 * (near.0 + rx) * dx + 0.5 * (near.1 + ry) * dy) / len.max(1e-6);
+                if len > 1e-6 && d < edge {
+                    (edge, across) = (d, (i, j));
                 }
             }
         }
-        (edge * cell, Layer(self.0 ^ 0xc2b2_ae35).white(at.0, at.1))
+        let id = |(i, j)| Layer(self.0 ^ 0xc2b2_ae35).white(i, j);
+        VoronoiEdge { distance: edge * cell, id: id(at), across: id(across) }
+    }
+}
+
+/// The result of [`Layer::voronoi_edge`].
+#[derive(Clone, Copy, Debug)]
+pub struct VoronoiEdge {
+    /// Distance to the nearest cell border, in pixels.
+    pub distance: f32,
+    /// A hash of the cell the point lies in, uniform in [0, 1) (as [`Cellular::id`]).
+    pub id: f32,
+    /// The hash of the cell across the nearest border.
+    pub across: f32,
+}
+
+impl VoronoiEdge {
+    /// A hash of the nearest border segment, uniform-ish in [0, 1): the
+    /// same from both of its cells.
+    pub fn segment(&self) -> f32 {
+        let (a, b) = (self.id, self.across);
+        (13.7 * (a + b) + 31.1 * a * b).fract()
     }
 }
 
@@ -218,6 +241,52 @@ pub fn ramp(stops: &[(f32, [f32; 3])], t: f32) -> [f32; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The exact border distance agrees with a brute-force one (the
+    /// nearest bisector among the feature points of 7 x 7 cells), is never
+    /// below half the F2 - F1 gap, and a border segment has one hash from
+    /// both sides.
+    #[test]
+    fn voronoi_edges_are_exact_and_segments_are_shared() {
+        let layer = Layer::new(3, 9);
+        let cell = 20.0;
+        let mut short = 0;
+        for k in 0..400 {
+            let (x, y) = ((k % 20) as f32 * 7.3 + 0.4, (k / 20) as f32 * 6.1 + 0.7);
+            let (cx, cy) = (x / cell, y / cell);
+            let points: Vec<(f32, f32)> = (-3..=3)
+                .flat_map(|j| (-3..=3).map(move |i| (i, j)))
+                .map(|(i, j)| layer.feature_point(cx.floor() as i32 + i, cy.floor() as i32 + j))
+                .collect();
+            let d2 = |p: &(f32, f32)| (p.0 - cx).powi(2) + (p.1 - cy).powi(2);
+            let near = *points.iter().min_by(|a, b| d2(a).total_cmp(&d2(b))).unwrap();
+            let truth = points
+                .iter()
+                .filter(|p| **p != near)
+                .map(|p| {
+                    let (dx, dy) = (p.0 - near.0, p.1 - near.1);
+                    let (mx, my) = (0.5 * (p.0 + near.0) - cx, 0.5 * (p.1 + near.1) - cy);
+                    (mx * dx + my * dy) / (dx * dx + dy * dy).sqrt()
+                })
+                .fold(f32::MAX, f32::min)
+                * cell;
+            let edge = layer.voronoi_edge(x, y, cell);
+            assert!((edge.distance - truth).abs() < 1e-3, "({x}, {y}): {} vs {truth}", edge.distance);
+            let gap = layer.worley(x, y, cell).border();
+            assert!(gap <= edge.distance + 1e-3);
+            short += (gap < edge.distance - 0.1 * cell) as usize;
+        }
+        assert!(short > 0, "the F2 - F1 gap should fall short somewhere near a junction");
+        // Walk across a border: the segment hash is the same on both sides.
+        let (mut x, y) = (5.0f32, 33.0f32);
+        let first = layer.voronoi_edge(x, y, cell);
+        while layer.voronoi_edge(x, y, cell).id == first.id {
+            x += 0.25;
+        }
+        let (before, after) = (layer.voronoi_edge(x - 0.25, y, cell), layer.voronoi_edge(x, y, cell));
+        assert_eq!(before.across, after.id);
+        assert_eq!(before.segment(), after.segment());
+    }
 
     #[test]
     fn perlin_is_zero_mean_bounded_and_seeded() {
