@@ -33,7 +33,7 @@ pub const NEVER: f32 = 1.0;
 pub enum DecayClass {
     /// Corrosion: swirled layers of dark brown to orange-ochre oxide, pitted and granular.
     Rust,
-    /// Paint flaking off in curled-edged flakes, showing weathered wood or plaster.
+    /// Paint flaking off in chipped patches, showing primer on a painted object or the body under the surface on a grey one.
     Peeling,
     /// Crazed paint or plaster: a network of cracks (large cells split into smaller ones).
     Cracked,
