@@ -575,3 +575,20 @@ fn decay_is_no_more_saturated_than_its_scene() {
     assert!(in_grey < 32.0, "rust in a grey scene: chroma up to {in_grey}");
     assert!(in_orange > in_grey + 8.0, "rust on orange paint keeps its colour: {in_orange} vs {in_grey}");
 }
+
+/// The texture takes the photo's exposure: the same scene shot at 40% of
+/// the light (every linear value x 0.4) gets rust with well under the
+/// linear luminance it has in the bright shot (0.4 x would be exact; the
+/// exposure is floored at a third), not rust as light as in the bright shot.
+#[test]
+fn decay_takes_the_photos_exposure() {
+    use patina::image::color::srgb_to_linear;
+    let bright = photo_in([0.6, 0.6, 0.6]);
+    let mut dim = bright.clone();
+    dim.data_mut().iter_mut().for_each(|v| *v = linear_to_srgb(0.4 * srgb_to_linear(*v)));
+    let (lit, shown) = fully_decayed(&bright, DecayClass::Rust);
+    let (dark, _) = fully_decayed(&dim, DecayClass::Rust);
+    let y = |l: f32| ((l + 16.0) / 116.0).powi(3);
+    let ratio = y(mean_lab(&dark, &shown)[0]) / y(mean_lab(&lit, &shown)[0]);
+    assert!(ratio < 0.6, "rust's luminance in the dim shot over the bright one: {ratio}");
+}

@@ -251,10 +251,18 @@ const SCENE_CHROMA_QUANTILE: f32 = 0.95;
 const SCENE_CHROMA_HEADROOM: f32 = 1.25;
 /// ... but never below this (a grey scene still lets rust be brown).
 const MIN_CHROMA_CAP: f32 = 28.0;
+/// The albedo of the brightest surfaces in a photo (its white).
+const WHITE_ALBEDO: f32 = 0.8;
+/// The darkest exposure [`adapt_to_scene`] assumes (a third of the texture's own light).
+const MIN_EXPOSURE: f32 = 0.33;
 
 /// Adapt a decay texture's own colours (Lab, in place) to the photo's
-/// light: the texture is a material seen under bright neutral light, and
-/// its chroma is compressed softly, C' = cap tanh(C / cap), with the cap
+/// light: the texture is a material seen under bright neutral light with
+/// white at 1. Its exposure is scaled to the photo's (the photo's
+/// 95th-percentile luminance taken as albedo 0.8, between a third and all
+/// of the texture's light: rust on a dimly exposed white statue was as
+/// light as the statue and read as salmon paint), and its chroma is
+/// compressed softly, C' = cap tanh(C / cap), with the cap
 /// at 1.25 x the photo's 95th-percentile chroma (at least 28): rust and
 /// moss under a grey sky are no more saturated than the brightest things
 /// in that scene, while on an orange hydrant in sunlight they keep their
@@ -265,13 +273,20 @@ pub fn adapt_to_scene(texture_lab: &mut Image, photo_lab: &Image) {
     let k = ((chroma.len().max(1) - 1) as f32 * SCENE_CHROMA_QUANTILE) as usize;
     let scene = if chroma.is_empty() { 0.0 } else { *chroma.select_nth_unstable_by(k, f32::total_cmp).1 };
     let cap = (SCENE_CHROMA_HEADROOM * scene).max(MIN_CHROMA_CAP);
+    // Exposure: the scene's white (its 95th-percentile luminance) is
+    // taken as a surface of albedo WHITE_ALBEDO; the texture, drawn with
+    // white at 1, is scaled to it in linear light: L* -> k^(1/3) (L* + 16) - 16,
+    // a*b* -> k^(1/3) a*b*.
+    let mut lightness: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[0]).collect();
+    let k = ((lightness.len().max(1) - 1) as f32 * SCENE_CHROMA_QUANTILE) as usize;
+    let white = if lightness.is_empty() { 100.0 } else { *lightness.select_nth_unstable_by(k, f32::total_cmp).1 };
+    let exposure = (((white + 16.0) / 116.0).powi(3) / WHITE_ALBEDO).clamp(MIN_EXPOSURE, 1.0).cbrt();
     texture_lab.data_mut().par_chunks_mut(3).for_each(|px| {
-        let c = px[1].hypot(px[2]);
-        if c > 1e-6 {
-            let scale = cap * (c / cap).tanh() / c;
-            px[1] *= scale;
-            px[2] *= scale;
-        }
+        px[0] = exposure * (px[0] + 16.0) - 16.0;
+        let c = px[1].hypot(px[2]) * exposure;
+        let scale = if c > 1e-6 { exposure * cap * (c / cap).tanh() / c } else { exposure };
+        px[1] *= scale;
+        px[2] *= scale;
     });
 }
 

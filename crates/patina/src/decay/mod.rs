@@ -164,7 +164,10 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     let texture_lab = if params.class.photo_relative() && inputs.texture.is_none() {
         composite::darkened_photo(photo, &texture, &shading, texture::CRACKED_SURFACE)
     } else {
+        // The texture's own material under the photo's light, then (for
+        // peeling on an unpainted object) moved to the object's colours.
         let mut texture_lab = to_lab(&texture);
+        composite::adapt_to_scene(&mut texture_lab, &photo_lab);
         let strength = params.class.colour_transfer(composite::mean_chroma(&photo_lab, &mask));
         if strength > 0.0 {
             composite::transfer_colour(&mut texture_lab, &onset, &photo_lab, &mask, strength);
@@ -176,7 +179,6 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
                 });
             }
         }
-        composite::adapt_to_scene(&mut texture_lab, &photo_lab);
         texture_lab
     };
     let (degree, draws) = match inputs.degree {

@@ -74,13 +74,19 @@ fn log_luminance(photo: &Image) -> Image {
     })
 }
 
+/// The largest brightening residual the relief passes (log units): bright
+/// specks (a carved letter's lit edge) came through dark rust and moss
+/// as glitter at 0.5; grooves and recesses, the relief that matters, are
+/// dark.
+const RELIEF_BRIGHTEST: f32 = 0.2;
+
 /// How much of the photo's fine relief ([`relief`]) shows through the decay.
 pub const RELIEF: f32 = 0.85;
 
 /// The photo's fine relief: what the shading estimate smoothed away (the
 /// residual of log luminance over the shading, zero mean inside the
 /// mask), as a linear luminance factor exp(`strength` x residual), the
-/// residual held to [-1, 0.5]. The shading keeps only the form at the
+/// residual held to [-1, [`RELIEF_BRIGHTEST`]]. The shading keeps only the form at the
 /// window's scale, so carved letters, the curls of a statue and the bolts
 /// on a hydrant vanished under the decay; a layer of rust or moss follows
 /// the surface it grows on, so its luminance takes that relief too. The
@@ -94,7 +100,7 @@ pub fn relief(photo: &Image, mask: &Mask, shading: &Image, strength: f32) -> Ima
     let mean = (inside.iter().sum::<f64>() / inside.len().max(1) as f64) as f32;
     let mut out = residual;
     for (v, &m) in out.data_mut().iter_mut().zip(mask.bits()) {
-        *v = if m { (strength * (*v - mean).clamp(-1.0, 0.5)).exp() } else { 1.0 };
+        *v = if m { (strength * (*v - mean).clamp(-1.0, RELIEF_BRIGHTEST)).exp() } else { 1.0 };
     }
     out
 }
