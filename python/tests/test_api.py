@@ -150,14 +150,35 @@ def test_a_raising_callback_stops_the_job_and_leaves_no_output(tmp_path):
 
 
 def test_ctrl_c_cancels_cleanly(tmp_path):
-    timer = threading.Timer(0.3, _thread.interrupt_main)
-    timer.start()
+    # Ctrl-C as a signal pending for the main thread, 0.3 s into the job,
+    # repeated 2 s later (long after a cancelled job has returned) while the
+    # job still runs, at most twice: one CI run saw the call return without
+    # KeyboardInterrupt, as if the first interrupt had been lost. A job that
+    # ignores Ctrl-C ignores all three.
+    running = threading.Event()
+    running.set()
+
+    def poke():
+        for wait in (0.3, 2.0, 2.0):
+            time.sleep(wait)
+            if not running.is_set():
+                return
+            _thread.interrupt_main()
+
+    timer = threading.Thread(target=poke)
     started = time.perf_counter()
-    with pytest.raises(KeyboardInterrupt):
+    timer.start()
+    raised = False
+    try:
         # optimize: the default quilt finishes 1024 px before the interrupt lands.
         patina.synth(bricks(128, 128), size=(1024, 1024), method="optimize", out=tmp_path / "big.png")
+    except KeyboardInterrupt:
+        raised = True
+    finally:
+        running.clear()
     elapsed = time.perf_counter() - started
     timer.join()
+    assert raised, "Ctrl-C did not cancel the job"
     assert elapsed < 20, f"cancel took {elapsed:.1f} s"
     assert list(tmp_path.iterdir()) == [], "a cancelled job left files behind"
     # The module still works afterwards.
