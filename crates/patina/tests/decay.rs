@@ -254,7 +254,12 @@ fn a_matte_decay_drops_the_photos_highlight_and_keeps_its_shading() {
 
 /// Eq. 3 alone: the composite without a transition zone.
 fn plain(photo: &Image, photo_lab: &Image, texture_lab: &Image, onset: &Image, shading: &Image, degree: &Image) -> Image {
-    composite(photo, photo_lab, &Layers { texture_lab, onset, shading, stain: None, young: 0.6, relief: Relief::FLAT, light: [0.0, -1.0] }, degree)
+    composite(
+        photo,
+        photo_lab,
+        &Layers { texture_lab, onset, shading, stain: None, young: 0.6, relief: Relief::FLAT, light: [0.0, -1.0] },
+        degree,
+    )
 }
 
 /// A flat grey photo decayed fully left of x = 80 and barely begun (D =
@@ -270,7 +275,15 @@ fn stain_profile(class: DecayClass, transition: Transition) -> Vec<f32> {
     let shading = Image::from_fn(W, H, 1, |_, _, p| p[0] = 1.0);
     let degree = Image::from_fn(W, H, 1, |x, _, p| p[0] = if x < 80 { 1.0 } else { 0.01 });
     let stain = transition.field(W, H, 3);
-    let layers = Layers { texture_lab: &lab_tex, onset: &onset, shading: &shading, stain: stain.as_ref(), young: 0.6, relief: Relief::FLAT, light: [0.0, -1.0] };
+    let layers = Layers {
+        texture_lab: &lab_tex,
+        onset: &onset,
+        shading: &shading,
+        stain: stain.as_ref(),
+        young: 0.6,
+        relief: Relief::FLAT,
+        light: [0.0, -1.0],
+    };
     let out = to_lab(&composite(&input, &lab_in, &layers, &degree));
     (80..W)
         .map(|x| {
@@ -512,9 +525,7 @@ fn fully_decayed(input: &Image, class: DecayClass) -> (Image, Vec<usize>) {
     let inputs = Inputs { mask: Some(&mask), degree: Some(&ones), ..Default::default() };
     let prep = decay::prepare(input, inputs, &DecayParams::new(class), 5).unwrap();
     let frame = decay::sequence(&prep, 1, 5, None).unwrap().remove(0);
-    let shown = (0..W * H)
-        .filter(|&i| mask.bits()[i] && (45..95).contains(&(i % W)) && prep.texture.data()[i * 4 + 3] < 0.9)
-        .collect();
+    let shown = (0..W * H).filter(|&i| mask.bits()[i] && (45..95).contains(&(i % W)) && prep.texture.data()[i * 4 + 3] < 0.9).collect();
     (to_lab(&frame.image), shown)
 }
 

@@ -36,10 +36,10 @@
 //! the photo's own detail and shading). It appears only where the decay
 //! has begun (D > 0), so pixels at D = 0 stay the photo's bytes.
 
+use super::layer::{self, Relief};
 use crate::image::color::{lab_pixel_to_srgb, linear_pixel_to_lab, srgb_to_linear, LUMA};
 use crate::image::filter::{gaussian_blur, shrunk_blur};
 use crate::image::noise::{smoothstep, Layer};
-use super::layer::{self, Relief};
 use crate::image::{Image, Mask};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -244,9 +244,9 @@ pub fn darkened_photo(photo: &Image, texture: &Image, shading: &Image, surface: 
     out
 }
 
-/// Share of the photo's most saturated colours (its chroma quantile) that
-/// a decay texture may reach ([`adapt_to_scene`]).
-const SCENE_CHROMA_QUANTILE: f32 = 0.95;
+/// The quantile of the photo's chroma and lightness that [`adapt_to_scene`]
+/// takes as the scene's most saturated colour and its white.
+const SCENE_QUANTILE: f32 = 0.95;
 /// A texture's chroma is held to about this multiple of the scene's ...
 const SCENE_CHROMA_HEADROOM: f32 = 1.25;
 /// ... but never below this (a grey scene still lets rust be brown).
@@ -270,16 +270,14 @@ const MIN_EXPOSURE: f32 = 0.33;
 /// Kries); under a bluish white it turned rust pink.
 pub fn adapt_to_scene(texture_lab: &mut Image, photo_lab: &Image) {
     let mut chroma: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[1].hypot(p[2])).collect();
-    let k = ((chroma.len().max(1) - 1) as f32 * SCENE_CHROMA_QUANTILE) as usize;
-    let scene = if chroma.is_empty() { 0.0 } else { *chroma.select_nth_unstable_by(k, f32::total_cmp).1 };
+    let scene = super::quantile(&mut chroma, SCENE_QUANTILE).unwrap_or(0.0);
     let cap = (SCENE_CHROMA_HEADROOM * scene).max(MIN_CHROMA_CAP);
     // Exposure: the scene's white (its 95th-percentile luminance) is
     // taken as a surface of albedo WHITE_ALBEDO; the texture, drawn with
     // white at 1, is scaled to it in linear light: L* -> k^(1/3) (L* + 16) - 16,
     // a*b* -> k^(1/3) a*b*.
     let mut lightness: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[0]).collect();
-    let k = ((lightness.len().max(1) - 1) as f32 * SCENE_CHROMA_QUANTILE) as usize;
-    let white = if lightness.is_empty() { 100.0 } else { *lightness.select_nth_unstable_by(k, f32::total_cmp).1 };
+    let white = super::quantile(&mut lightness, SCENE_QUANTILE).unwrap_or(100.0);
     let exposure = (((white + 16.0) / 116.0).powi(3) / WHITE_ALBEDO).clamp(MIN_EXPOSURE, 1.0).cbrt();
     texture_lab.data_mut().par_chunks_mut(3).for_each(|px| {
         px[0] = exposure * (px[0] + 16.0) - 16.0;

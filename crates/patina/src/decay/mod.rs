@@ -70,6 +70,13 @@ impl DecayParams {
 /// a dimly lit white statue it was invisible.
 const UNDER_THE_SCALE: [f32; 2] = [-10.0, 5.0];
 
+/// The `q` quantile of `values` (the value at index floor((n - 1) q) in
+/// sorted order; `values` is reordered), or `None` when there are none.
+fn quantile(values: &mut [f32], q: f32) -> Option<f32> {
+    let k = ((values.len().checked_sub(1)?) as f32 * q) as usize;
+    Some(*values.select_nth_unstable_by(k, f32::total_cmp).1)
+}
+
 /// What [`sequence`] needs, computed once per photo.
 pub struct Prepared {
     /// The photo (sRGB), and in Lab.
@@ -235,8 +242,7 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
     let mut out = Vec::with_capacity(frames);
     for k in 0..frames {
         let degree = paced(&simulated, k, ends, &prep.onset, &prep.mask);
-        let layers =
-            composite::Layers {
+        let layers = composite::Layers {
             texture_lab: &prep.texture_lab,
             onset: &prep.onset,
             shading: &prep.shading,

@@ -123,11 +123,10 @@ pub fn relief(photo: &Image, mask: &Mask, shading: &Image, strength: f32) -> Ima
 /// broad highlight on a white statue's crown still showed through rust).
 pub fn with_gloss(shading: &Image, mask: &Mask, gloss: f32) -> Image {
     let mut inside: Vec<f32> = shading.data().iter().zip(mask.bits()).filter(|(_, &m)| m).map(|(v, _)| *v).collect();
-    if inside.is_empty() || gloss >= 1.0 {
-        return shading.clone();
-    }
-    let k = ((inside.len() - 1) as f32 * HIGHLIGHT_QUANTILE) as usize;
-    let q = *inside.select_nth_unstable_by(k, f32::total_cmp).1;
+    let q = match super::quantile(&mut inside, HIGHLIGHT_QUANTILE) {
+        Some(q) if gloss < 1.0 => q,
+        _ => return shading.clone(),
+    };
     let keep = gloss.clamp(0.0, 1.0);
     let mut out = shading.clone();
     for (v, &m) in out.data_mut().iter_mut().zip(mask.bits()) {

@@ -268,6 +268,12 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let ragged = g.layer(7).fbm(x, y, 2.0, 2, 0.5);
     let onset = 0.45 - 1.1 * patch + 0.22 * (big.id - 0.5) + 0.1 * (small.id - 0.5) + 0.04 * ragged;
     let grain = g.layer(2).white(x as i32, y as i32) - 0.5;
+    if onset >= 0.95 {
+        // Paint that stays: never shown on a photo (the photo's own paint
+        // is), drawn as a cream coat so the texture alone shows its flakes.
+        let tone = 0.93 + 0.05 * g.layer(9).fbm(x, y, 40.0 * s, 3, 0.5) + 0.03 * grain;
+        return [0.80 * tone, 0.77 * tone, 0.70 * tone, NEVER];
+    }
     let mottle = g.layer(3).fbm(x, y, 16.0, 4, 0.6);
     let stain = smoothstep(0.1, 0.45, g.layer(4).fbm(x, y, 22.0 * s, 4, 0.55));
     let pits = g.layer(5).worley(x, y, 11.0);
@@ -279,12 +285,6 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     c = mix3(c, [0.30, 0.17, 0.10], 0.7 * pit);
     let fine = g.layer(8).fbm(x, y, 1.5, 2, 0.5);
     c = c.map(|v| v * (1.0 + 0.07 * grain + 0.08 * fine));
-    if onset >= 0.95 {
-        // Paint that stays: never shown on a photo (the photo's own paint
-        // is), drawn as a cream coat so the texture alone shows its flakes.
-        let tone = 0.93 + 0.05 * g.layer(9).fbm(x, y, 40.0 * s, 3, 0.5) + 0.03 * grain;
-        return [0.80 * tone, 0.77 * tone, 0.70 * tone, NEVER];
-    }
     [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
 }
 
