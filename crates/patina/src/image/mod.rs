@@ -10,7 +10,9 @@
 pub mod budget;
 pub mod color;
 pub mod filter;
+pub mod grabcut;
 pub mod io;
+pub mod maxflow;
 pub mod noise;
 pub mod resample;
 pub mod sequence;
