@@ -189,6 +189,34 @@ pub fn equalize(img: &Image) -> Image {
     Image::from_data(img.width(), img.height(), 1, out).expect("same size")
 }
 
+/// Otsu's threshold of `values` (64 bins over their range).
+pub fn otsu(values: &[f32]) -> f32 {
+    let (lo, hi) = values.iter().fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+    if hi <= lo {
+        return lo;
+    }
+    let bins = 64;
+    let mut hist = vec![0f64; bins];
+    values.iter().for_each(|&v| hist[(((v - lo) / (hi - lo) * bins as f32) as usize).min(bins - 1)] += 1.0);
+    let total: f64 = hist.iter().sum();
+    let sum_all: f64 = hist.iter().enumerate().map(|(i, &c)| i as f64 * c).sum();
+    let (mut best, mut best_t, mut w0, mut s0) = (-1.0, 0usize, 0.0, 0.0);
+    for (t, &c) in hist.iter().enumerate() {
+        w0 += c;
+        s0 += t as f64 * c;
+        let w1 = total - w0;
+        if w0 == 0.0 || w1 == 0.0 {
+            continue;
+        }
+        let between = w0 * w1 * (s0 / w0 - (sum_all - s0) / w1).powi(2);
+        if between > best {
+            best = between;
+            best_t = t;
+        }
+    }
+    lo + (best_t + 1) as f32 / bins as f32 * (hi - lo)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

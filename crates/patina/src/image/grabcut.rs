@@ -16,7 +16,10 @@
 //! outline at full resolution with the coarse level's models, so the
 //! outline follows the photo's own edges, not the coarse grid.
 
+use super::color::to_lab;
 use super::maxflow::GridCut;
+use super::region;
+use super::resample::{resize, Filter};
 use super::{Image, Mask};
 use crate::rng::{self, Generator};
 use nalgebra::{Matrix3, Vector3};
@@ -120,6 +123,124 @@ pub fn refine(features: &Image, coarse: &Mask, band: usize, prior: Option<&[f32]
     Mask::from_fn(w, h, |x, y| labels[y * w + x])
 }
 
+/// Longer side of the working copy [`cut_out`] runs GrabCut on.
+pub const CUT_SIDE: usize = 384;
+/// Pixels deeper inside the starting region than this share of its
+/// deepest point are held as foreground.
+const CORE: f32 = 0.5;
+/// Pixels farther outside the starting region than this share of the
+/// working copy's longer side are held as background.
+const REACH: f32 = 0.12;
+/// The final opening's radius is the shorter side over this.
+const OPENING: usize = 200;
+
+/// The object in `rgb` (sRGB-encoded) that `start` (a rough region at any
+/// resolution) points at, cut out at full resolution:
+/// 1. GrabCut on a copy CUT_SIDE px long: `start`'s core is held as
+///    foreground, the frame and whatever lies far from `start` as
+///    background, the rest is decided by the cut (features: Lab, with
+///    lightness scaled by `lightness` so shading counts less than colour);
+/// 2. the subject component (under `focus`, in full-resolution pixels, if
+///    given) with its holes filled;
+/// 3. a band of 2 working pixels round its outline re-cut at full
+///    resolution with the working level's models;
+/// 4. a small opening (shorter side / 200) against hair-thin spurs, then
+///    the subject again, holes filled.
+pub fn cut_out(rgb: &Image, start: &Mask, lightness: f32, focus: Option<(usize, usize)>, seed: u64) -> Mask {
+    let (w, h) = rgb.size();
+    let (sw, sh) = start.size();
+    if start.count() == 0 || start.count() == sw * sh {
+        return Mask::from_fn(w, h, |x, y| start.get(scaled(x, w, sw), scaled(y, h, sh)));
+    }
+    let features = |img: &Image| {
+        let mut lab = to_lab(&img.select_channels(0..3));
+        lab.data_mut().chunks_exact_mut(3).for_each(|p| p[0] *= lightness);
+        lab
+    };
+    let scale = (CUT_SIDE as f32 / w.max(h) as f32).min(1.0);
+    let (cw, ch) = (((w as f32 * scale).round() as usize).max(1), ((h as f32 * scale).round() as usize).max(1));
+    let small = features(&resize(rgb, cw, ch, Filter::Linear).expect("a smaller size"));
+    let begin = Mask::from_fn(cw, ch, |x, y| start.get(scaled(x, cw, sw), scaled(y, ch, sh)));
+    let depth = begin.signed_distance();
+    let core = depth.iter().copied().fold(0f32, f32::max) * CORE;
+    let reach = (cw.max(ch) as f32 * REACH).max(4.0);
+    let small_focus = focus.map(|(x, y)| (scaled(x, w, cw), scaled(y, h, ch)));
+    let seeds: Vec<Seed> = (0..cw * ch)
+        .map(|i| {
+            let (x, y) = (i % cw, i / cw);
+            let frame = x == 0 || y == 0 || x + 1 == cw || y + 1 == ch;
+            let focused = small_focus.is_some_and(|(fx, fy)| fx.abs_diff(x).max(fy.abs_diff(y)) <= 1);
+            match depth[i] {
+                _ if focused => Seed::Foreground,
+                d if d >= core => Seed::Foreground,
+                d if d > 0.0 => Seed::ProbablyForeground,
+                d if d < -reach || frame => Seed::Background,
+                _ => Seed::ProbablyBackground,
+            }
+        })
+        .collect();
+    let params = GrabCutParams::default();
+    let (labels, models) = segment(&small, &seeds, None, &params, seed);
+    let object = region::fill_holes(&region::subject(&labels, cw, ch, small_focus), cw, ch);
+    let coarse = Mask::from_fn(w, h, |x, y| object[scaled(y, h, ch) * cw + scaled(x, w, cw)]);
+    let band = ((w.max(h) as f32 / CUT_SIDE as f32).ceil() as usize * 2).max(2);
+    let fine = refine(&features(rgb), &coarse, band, None, &models, params.gamma);
+    let r = (w.min(h) / OPENING).max(1);
+    let opened = fine.erode(r).dilate(r);
+    let filled = region::fill_holes(&region::subject(opened.bits(), w, h, focus), w, h);
+    Mask::from_fn(w, h, |x, y| filled[y * w + x])
+}
+
+/// `i` of `n` on a grid of `m`.
+fn scaled(i: usize, n: usize, m: usize) -> usize {
+    (i * m / n).min(m - 1)
+}
+
+/// Longer side of the copy [`salient_object`] finds its start on.
+const SALIENCY_SIDE: usize = 192;
+/// Width of the frame strip taken as background, as a share of each side.
+const FRAME: f32 = 0.05;
+
+/// The photo's main object (`rgb` sRGB-encoded): the object under `focus`
+/// (full-resolution pixels) if given, else the largest central region
+/// unlike the picture's frame. Saliency here is the frame's own colour
+/// model: a Gaussian mixture fitted to a strip along the four edges gives
+/// each pixel a cost -log p(z | frame); pixels above the Otsu threshold of
+/// that cost are "not background", smoothed by majority votes, and their
+/// subject component (holes filled) starts [`cut_out`]. With `focus` on a
+/// pixel the frame model explains, the start is a disc of a tenth of the
+/// shorter side around it.
+///
+/// Simplification: "salient" means "unlike the frame" (the boundary prior
+/// of most saliency detectors); an object that fills the frame or shares
+/// its colours with it needs `focus` or a hand mask.
+pub fn salient_object(rgb: &Image, focus: Option<(usize, usize)>, seed: u64) -> Mask {
+    let (w, h) = rgb.size();
+    let scale = (SALIENCY_SIDE as f32 / w.max(h) as f32).min(1.0);
+    let (sw, sh) = (((w as f32 * scale).round() as usize).max(2), ((h as f32 * scale).round() as usize).max(2));
+    let lab = to_lab(&resize(&rgb.select_channels(0..3), sw, sh, Filter::Linear).expect("a smaller size"));
+    let z = points(&lab);
+    let (fx, fy) = (((sw as f32 * FRAME).ceil() as usize).max(1), ((sh as f32 * FRAME).ceil() as usize).max(1));
+    let inner: Vec<bool> = (0..sw * sh).map(|i| (fx..sw - fx).contains(&(i % sw)) && (fy..sh - fy).contains(&(i / sw))).collect();
+    let mut g = rng::generator(seed, &[0x5a11e7]);
+    let frame = fit(&z, &inner, GrabCutParams::default().components, &mut g).background;
+    let cost: Vec<f32> = z.par_iter().map(|p| frame.cost(p) as f32).collect();
+    let threshold = super::filter::otsu(&cost);
+    let mut salient: Vec<bool> = cost.iter().map(|&c| c > threshold).collect();
+    for _ in 0..3 {
+        salient = region::majority(&salient, sw, sh);
+    }
+    let small_focus = focus.map(|(x, y)| (scaled(x, w, sw), scaled(y, h, sh)));
+    let mut start = region::fill_holes(&region::subject(&salient, sw, sh, small_focus), sw, sh);
+    if let Some((x, y)) = small_focus {
+        if !start[y * sw + x] {
+            let r = (sw.min(sh) as f32 / 10.0).max(2.0);
+            start = (0..sw * sh).map(|i| ((i % sw) as f32 - x as f32).hypot((i / sw) as f32 - y as f32) <= r).collect();
+        }
+    }
+    cut_out(rgb, &Mask::from_fn(sw, sh, |x, y| start[y * sw + x]), 1.0, focus, seed)
+}
+
 fn points(features: &Image) -> Vec<Vector3<f64>> {
     assert!(features.channels() >= 3, "three feature channels");
     let c = features.channels();
@@ -133,9 +254,8 @@ impl Pairs {
     fn of(z: &[Vector3<f64>], w: usize, h: usize, gamma: f32) -> Self {
         let grid = GridCut::new(w, h);
         let squared = |i: usize, d: u8| grid.neighbour(i, d).map(|j| (z[i] - z[j]).norm_squared());
-        let (sum, count) = (0..w * h)
-            .flat_map(|i| (0..4u8).filter_map(move |d| squared(i, d)))
-            .fold((0.0f64, 0usize), |(s, n), v| (s + v, n + 1));
+        let (sum, count) =
+            (0..w * h).flat_map(|i| (0..4u8).filter_map(move |d| squared(i, d))).fold((0.0f64, 0usize), |(s, n), v| (s + v, n + 1));
         let beta = if sum > 0.0 { count as f64 / (2.0 * sum) } else { 0.0 };
         let weights = (0..w * h)
             .into_par_iter()
@@ -380,8 +500,7 @@ mod tests {
         });
         // A blocky coarse mask (8 px blocks) as from a low-resolution level.
         let coarse = Mask::from_fn(w, h, |x, y| inside((x / 8 * 8 + 4) as f32, (y / 8 * 8 + 4) as f32));
-        let seeds: Vec<Seed> =
-            coarse.bits().iter().map(|&b| if b { Seed::ProbablyForeground } else { Seed::ProbablyBackground }).collect();
+        let seeds: Vec<Seed> = coarse.bits().iter().map(|&b| if b { Seed::ProbablyForeground } else { Seed::ProbablyBackground }).collect();
         let (_, models) = segment(&img, &seeds, None, &GrabCutParams { iterations: 1, ..Default::default() }, 1);
         let fine = refine(&img, &coarse, 6, None, &models, 50.0);
         let wrong = |m: &Mask| (0..w * h).filter(|&i| m.bits()[i] != inside((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)).count();

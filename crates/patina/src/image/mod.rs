@@ -14,6 +14,7 @@ pub mod grabcut;
 pub mod io;
 pub mod maxflow;
 pub mod noise;
+pub mod region;
 pub mod resample;
 pub mod sequence;
 pub mod summed;
