@@ -5,6 +5,7 @@ use crate::progress::with_bar;
 use patina::decay::exemplar::{from_exemplar, FromExemplar};
 use patina::decay::{self, degree::Diffusion, texture, DecayClass, DecayParams, Inputs, ShadingParams};
 use patina::image::color::{linear_to_srgb, luminance};
+use patina::image::grabcut;
 use patina::image::io::{self, BitDepth};
 use patina::image::{Image, Mask};
 use patina::{Error, Result};
@@ -18,6 +19,13 @@ const GIF_DELAY_MS: u32 = 400;
 /// Parse `X,Y` (integers, may be negative).
 fn parse_offset(s: &str) -> std::result::Result<(i64, i64), String> {
     let bad = || format!("'{s}' is not X,Y (e.g. 1024,0)");
+    let (x, y) = s.split_once(',').ok_or_else(bad)?;
+    Ok((x.trim().parse().map_err(|_| bad())?, y.trim().parse().map_err(|_| bad())?))
+}
+
+/// Parse `X,Y` (non-negative integers).
+fn parse_point(s: &str) -> std::result::Result<(usize, usize), String> {
+    let bad = || format!("'{s}' is not X,Y with X and Y pixel positions >= 0 (e.g. 320,240)");
     let (x, y) = s.split_once(',').ok_or_else(bad)?;
     Ok((x.trim().parse().map_err(|_| bad())?, y.trim().parse().map_err(|_| bad())?))
 }
@@ -39,9 +47,12 @@ fn parse_class(s: &str) -> std::result::Result<DecayClass, String> {
 pub struct Args {
     /// Photo of the object (PNG, JPEG, 16-bit PNG or EXR; sRGB).
     pub photo: PathBuf,
-    /// Object mask, white = may decay [default: the whole photo].
-    #[arg(long)]
-    pub mask: Option<PathBuf>,
+    /// Object mask: a file (white = may decay), `auto` (the object under --point, or else the photo's main object: the largest central region unlike the picture's frame, cut out by GrabCut; written as mask_auto.png) or `none` (the whole photo).
+    #[arg(long, default_value = "none")]
+    pub mask: String,
+    /// With --mask auto: a pixel X,Y (from the top left) on the object to decay [default: the main object].
+    #[arg(long, value_parser = parse_point)]
+    pub point: Option<(usize, usize)>,
     /// Decay class: rust, peeling, cracked or mossy.
     #[arg(long, value_parser = parse_class, default_value = "rust")]
     pub class: DecayClass,
@@ -89,8 +100,15 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("decay", args.seed);
+    let mask_file = match args.mask.as_str() {
+        "auto" | "none" => None,
+        path => Some(PathBuf::from(path)),
+    };
+    if args.point.is_some() && args.mask != "auto" {
+        return Err(Error::InvalidInput("--point picks the object for --mask auto; add --mask auto".into()));
+    }
     let inputs: Vec<&Path> =
-        [Some(args.photo.as_path()), args.mask.as_deref(), args.degree.as_deref(), args.exemplar.as_deref(), args.rate_map.as_deref()]
+        [Some(args.photo.as_path()), mask_file.as_deref(), args.degree.as_deref(), args.exemplar.as_deref(), args.rate_map.as_deref()]
             .into_iter()
             .flatten()
             .collect();
@@ -107,7 +125,18 @@ pub fn run(args: Args) -> Result<()> {
     let dir = out.path();
     let photo = crate::input::load(&args.photo)?;
     let load_optional = |p: &Option<PathBuf>| p.as_ref().map(crate::input::load).transpose();
-    let mask = load_optional(&args.mask)?.map(|m| Mask::from_image(&luminance(&m)));
+    let mask = match args.mask.as_str() {
+        "none" => None,
+        "auto" => {
+            if let Some((x, y)) = args.point {
+                if x >= photo.width() || y >= photo.height() {
+                    return Err(Error::InvalidInput(format!("--point {x},{y} is outside the {}x{} photo", photo.width(), photo.height())));
+                }
+            }
+            Some(grabcut::salient_object(&photo, args.point, args.seed))
+        }
+        _ => load_optional(&mask_file)?.map(|m| Mask::from_image(&luminance(&m))),
+    };
     let painting = load_optional(&args.degree)?;
     let rate = load_optional(&args.rate_map)?;
     let exemplar = load_optional(&args.exemplar)?;
@@ -156,6 +185,15 @@ pub fn run(args: Args) -> Result<()> {
         p["lighting"] = json!(s.lighting);
     }
     p["degree_source"] = json!(if painting.is_some() { "painting" } else { "algorithm1" });
+    p["mask_source"] = json!(match args.mask.as_str() {
+        "auto" | "none" => args.mask.as_str(),
+        _ => "file",
+    });
+    if args.mask == "auto" {
+        p["point"] = json!(args.point.map(|(x, y)| [x, y]));
+        save_png(&prepared.mask.to_image(), dir.join("mask_auto.png"), BitDepth::Eight)?;
+        manifest.outputs.push("mask_auto.png".into());
+    }
     manifest.params = p;
     let inside = prepared.mask.count().max(1) as f64;
     // Share of the object past the paper's self-growth threshold (D > 0.25).

@@ -153,7 +153,7 @@ pub fn cut_out(rgb: &Image, start: &Mask, lightness: f32, focus: Option<(usize, 
         return Mask::from_fn(w, h, |x, y| start.get(scaled(x, w, sw), scaled(y, h, sh)));
     }
     let features = |img: &Image| {
-        let mut lab = to_lab(&img.select_channels(0..3));
+        let mut lab = to_lab(img);
         lab.data_mut().chunks_exact_mut(3).for_each(|p| p[0] *= lightness);
         lab
     };
@@ -196,6 +196,12 @@ fn scaled(i: usize, n: usize, m: usize) -> usize {
     (i * m / n).min(m - 1)
 }
 
+/// A flood from a point never stops at a Lab distance under this.
+const FLOOD_FLOOR: f32 = 6.0;
+/// Nor at a Lab distance over this.
+const FLOOD_CEILING: f32 = 40.0;
+/// A flood covering more than this share of the picture is split again.
+const MOST: f32 = 0.85;
 /// Longer side of the copy [`salient_object`] finds its start on.
 const SALIENCY_SIDE: usize = 192;
 /// Width of the frame strip taken as background, as a share of each side.
@@ -207,18 +213,20 @@ const FRAME: f32 = 0.05;
 /// model: a Gaussian mixture fitted to a strip along the four edges gives
 /// each pixel a cost -log p(z | frame); pixels above the Otsu threshold of
 /// that cost are "not background", smoothed by majority votes, and their
-/// subject component (holes filled) starts [`cut_out`]. With `focus` on a
-/// pixel the frame model explains, the start is a disc of a tenth of the
-/// shorter side around it.
+/// subject component (holes filled) starts [`cut_out`]. With `focus`
+/// outside that start, the start is instead the region of colours like the
+/// point's own that is connected to it ([`flood`]), so an object that
+/// fills the frame, or any other object, can be picked too.
 ///
 /// Simplification: "salient" means "unlike the frame" (the boundary prior
-/// of most saliency detectors); an object that fills the frame or shares
-/// its colours with it needs `focus` or a hand mask.
+/// of most saliency detectors); without `focus`, an object that fills the
+/// frame or shares its colours with it is missed (the gravestone 0405
+/// photo gives the trees above it).
 pub fn salient_object(rgb: &Image, focus: Option<(usize, usize)>, seed: u64) -> Mask {
     let (w, h) = rgb.size();
     let scale = (SALIENCY_SIDE as f32 / w.max(h) as f32).min(1.0);
     let (sw, sh) = (((w as f32 * scale).round() as usize).max(2), ((h as f32 * scale).round() as usize).max(2));
-    let lab = to_lab(&resize(&rgb.select_channels(0..3), sw, sh, Filter::Linear).expect("a smaller size"));
+    let lab = to_lab(&resize(rgb, sw, sh, Filter::Linear).expect("a smaller size"));
     let z = points(&lab);
     let (fx, fy) = (((sw as f32 * FRAME).ceil() as usize).max(1), ((sh as f32 * FRAME).ceil() as usize).max(1));
     let inner: Vec<bool> = (0..sw * sh).map(|i| (fx..sw - fx).contains(&(i % sw)) && (fy..sh - fy).contains(&(i / sw))).collect();
@@ -230,15 +238,46 @@ pub fn salient_object(rgb: &Image, focus: Option<(usize, usize)>, seed: u64) -> 
     for _ in 0..3 {
         salient = region::majority(&salient, sw, sh);
     }
-    let small_focus = focus.map(|(x, y)| (scaled(x, w, sw), scaled(y, h, sh)));
-    let mut start = region::fill_holes(&region::subject(&salient, sw, sh, small_focus), sw, sh);
-    if let Some((x, y)) = small_focus {
-        if !start[y * sw + x] {
-            let r = (sw.min(sh) as f32 / 10.0).max(2.0);
-            start = (0..sw * sh).map(|i| ((i % sw) as f32 - x as f32).hypot((i / sw) as f32 - y as f32) <= r).collect();
+    let mut start = region::fill_holes(&region::subject(&salient, sw, sh, None), sw, sh);
+    if let Some((x, y)) = focus {
+        let at = (scaled(x, w, sw), scaled(y, h, sh));
+        if !start[at.1 * sw + at.0] {
+            start = flood(&z, sw, sh, at);
         }
     }
     cut_out(rgb, &Mask::from_fn(sw, sh, |x, y| start[y * sw + x]), 1.0, focus, seed)
+}
+
+/// The pixels connected to `at` through colours like its own: Lab
+/// distance to the mean of its 5 x 5 neighbourhood below a threshold,
+/// smoothed by majority votes, holes filled. The threshold is the Otsu
+/// split of all pixels' distances (6-40 Lab units, so it neither stops at
+/// noise nor crosses a clear colour edge); while that region covers more than [`MOST`] of the
+/// picture (nothing was told apart), the split is taken again among the
+/// nearer distances only. The cut then takes the start to the object's
+/// edges.
+fn flood(z: &[Vector3<f64>], w: usize, h: usize, at: (usize, usize)) -> Vec<bool> {
+    let (ax, ay) = at;
+    let window =
+        || (ay.saturating_sub(2)..(ay + 3).min(h)).flat_map(move |y| (ax.saturating_sub(2)..(ax + 3).min(w)).map(move |x| y * w + x));
+    let mean: Vector3<f64> = window().map(|i| z[i]).sum::<Vector3<f64>>() / window().count() as f64;
+    let distance: Vec<f32> = z.iter().map(|p| (p - mean).norm() as f32).collect();
+    let mut threshold = super::filter::otsu(&distance).clamp(FLOOD_FLOOR, FLOOD_CEILING);
+    loop {
+        let mut like: Vec<bool> = distance.iter().map(|&d| d < threshold).collect();
+        for _ in 0..2 {
+            like = region::majority(&like, w, h);
+        }
+        like[ay * w + ax] = true;
+        let start = region::fill_holes(&region::subject(&like, w, h, Some(at)), w, h);
+        let covered = start.iter().filter(|&&b| b).count() as f32 / (w * h) as f32;
+        let nearer: Vec<f32> = distance.iter().copied().filter(|&d| d < threshold).collect();
+        let next = super::filter::otsu(&nearer).max(FLOOD_FLOOR);
+        if covered <= MOST || next >= threshold || threshold <= FLOOD_FLOOR {
+            return start;
+        }
+        threshold = next;
+    }
 }
 
 fn points(features: &Image) -> Vec<Vector3<f64>> {
@@ -505,5 +544,47 @@ mod tests {
         let fine = refine(&img, &coarse, 6, None, &models, 50.0);
         let wrong = |m: &Mask| (0..w * h).filter(|&i| m.bits()[i] != inside((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)).count();
         assert!(wrong(&fine) * 10 < wrong(&coarse), "refined {} wrong, coarse {}", wrong(&fine), wrong(&coarse));
+    }
+
+    /// A scene with a lit orange cylinder in the middle, a blue box off
+    /// centre and a slab that fills the lower width, on textured grey.
+    fn scene() -> (Image, Mask, Mask, Mask) {
+        let (w, h) = (320, 240);
+        let cylinder = Mask::from_fn(w, h, |x, y| (120..200).contains(&x) && (40..170).contains(&y));
+        let boxed = Mask::from_fn(w, h, |x, y| (24..64).contains(&x) && (30..70).contains(&y));
+        let slab = Mask::from_fn(w, h, |_, y| y >= 200);
+        let img = Image::from_fn(w, h, 3, |x, y, p| {
+            let n = value_noise(4, x as f32 / 3.0, y as f32 / 3.0);
+            let rgb = if cylinder.get(x, y) {
+                let shade = 0.35 + 0.65 * ((x as f32 - 120.0) / 80.0 * 3.0).sin().max(0.0);
+                [0.9 * shade, 0.4 * shade, 0.1 * shade]
+            } else if boxed.get(x, y) {
+                [0.15, 0.25, 0.7]
+            } else if slab.get(x, y) {
+                [0.62 + 0.05 * n, 0.55 + 0.05 * n, 0.45]
+            } else {
+                [0.4 + 0.15 * n, 0.4 + 0.15 * n, 0.42 + 0.15 * n]
+            };
+            p.copy_from_slice(&rgb);
+        });
+        (img, cylinder, boxed, slab)
+    }
+
+    fn iou(a: &Mask, b: &Mask) -> f32 {
+        let both = a.bits().iter().zip(b.bits()).filter(|(x, y)| **x && **y).count();
+        let either = a.bits().iter().zip(b.bits()).filter(|(x, y)| **x || **y).count();
+        both as f32 / either.max(1) as f32
+    }
+
+    #[test]
+    fn the_main_object_or_the_one_under_a_point_is_cut_out() {
+        let (img, cylinder, boxed, slab) = scene();
+        let main = salient_object(&img, None, 1);
+        assert!(iou(&main, &cylinder) > 0.95, "main object IoU {}", iou(&main, &cylinder));
+        let picked = salient_object(&img, Some((40, 50)), 1);
+        assert!(iou(&picked, &boxed) > 0.95, "pointed box IoU {}", iou(&picked, &boxed));
+        // The slab touches three sides of the frame: only a point finds it.
+        let floor = salient_object(&img, Some((300, 220)), 1);
+        assert!(iou(&floor, &slab) > 0.95, "pointed slab IoU {}", iou(&floor, &slab));
     }
 }
