@@ -524,6 +524,42 @@ fn decay_writes_every_output_and_is_the_same_on_any_thread_count() {
 }
 
 #[test]
+fn decay_mask_auto_cuts_out_the_object_and_keeps_the_rest() {
+    let dir = scratch("decay-auto");
+    let (w, h) = (160, 120);
+    let body = patina::Mask::from_fn(w, h, |x, y| (55..105).contains(&x) && (20..100).contains(&y));
+    let photo = patina::Image::from_fn(w, h, 3, |x, y, p| {
+        let n = patina::samples::value_noise(3, x as f32 / 3.0, y as f32 / 3.0);
+        if body.get(x, y) {
+            let v = 0.5 + 0.4 * ((x as f32 - 55.0) / 50.0);
+            p.copy_from_slice(&[v, v * 0.45, v * 0.15]);
+        } else {
+            p.fill(0.35 + 0.15 * n);
+        }
+    });
+    let img = dir.join("photo.png");
+    save_png(&photo, &img, BitDepth::Eight).unwrap();
+    let out = dir.join("a");
+    let r = patina(&["decay", s(&img), "--mask", "auto", "-o", s(&out), "--frames", "3", "--seed", "2"], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let found = patina::Mask::from_image(&load(out.join("mask_auto.png")).unwrap());
+    let wrong = (0..w * h).filter(|&i| found.bits()[i] != body.bits()[i]).count();
+    assert!(wrong * 50 < body.count(), "{wrong} of {} object pixels wrong", body.count());
+    let manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["params"]["mask_source"], "auto");
+    // Outside the found mask the last frame keeps the photo's bytes.
+    let (last, input) = (load(out.join("frames/002.png")).unwrap(), load(&img).unwrap());
+    for (i, &m) in found.bits().iter().enumerate() {
+        if !m {
+            assert_eq!(last.pixel(i % w, i / w), input.pixel(i % w, i / w));
+        }
+    }
+    fails_cleanly(&dir, &["decay", s(&img), "--point", "10,10", "-o", s(&dir.join("c"))], "--mask auto");
+    fails_cleanly(&dir, &["decay", s(&img), "--mask", "auto", "--point", "500,10", "-o", s(&dir.join("c"))], "outside");
+    fails_cleanly(&dir, &["decay", s(&img), "--mask", "auto", "--point", "a,b", "-o", s(&dir.join("c"))], "X,Y");
+}
+
+#[test]
 fn decay_texture_windows_tile_the_whole_and_stationarity_reads_it() {
     let dir = scratch("decay-texture");
     let whole = dir.join("whole.png");
