@@ -25,8 +25,8 @@ pub struct Args {
     pub photo: PathBuf,
     /// Object mask: a file (white = stone), `auto` (the photo's alpha if it
     /// has one, else the grey stone object found by colour and texture
-    /// clustering, written as mask_auto.png; its outline is not eroded and
-    /// the weathering fades in over 8 px from it) or `none` (the whole image).
+    /// clustering and cut out by GrabCut, written as mask_auto.png; the
+    /// weathering fades in over 2 px from its outline) or `none` (the whole image).
     #[arg(long, default_value = "auto")]
     pub mask: String,
     /// Output folder.
@@ -65,7 +65,7 @@ pub struct Args {
     /// Do not open pits (small cavities where the stone weathers most).
     #[arg(long)]
     pub no_pits: bool,
-    /// Do not erode the silhouette (erosion needs a mask file or alpha; an automatic mask is never eroded).
+    /// Do not erode the silhouette (erosion needs an object mask: a file, alpha or `auto`, not `none`).
     #[arg(long)]
     pub no_erosion: bool,
     /// epsilon: erosion iterations = epsilon sqrt(object pixels) t.
@@ -116,18 +116,18 @@ pub fn run(args: Args) -> Result<()> {
     let sample = args.rough_sample.as_ref().map(crate::input::load).transpose()?;
     manifest.timings_ms.insert("load".into(), clock.lap());
 
-    // An automatic mask can be off by a few pixels and take in a bit of
-    // background: its outline is not eroded, and the weathering fades in
-    // from it, so neither a wrong edge nor the background is repainted.
-    let params =
-        if mask_source == "auto" { StoneParams { erosion: false, feather: stone::select::AUTO_FEATHER, ..params } } else { params };
+    // An automatic mask's outline is cut on the photo's own edges, so it
+    // erodes like a hand mask; the weathering fades in over a couple of
+    // pixels from it, where the cut may be a pixel off.
+    let params = if mask_source == "auto" { StoneParams { feather: stone::select::AUTO_FEATHER, ..params } } else { params };
     let prepared = stone::prepare(&photo, mask.as_ref(), sample.as_ref(), &params)?;
     manifest.timings_ms.insert("prepare".into(), clock.lap());
     let frames = with_bar("stone", |report| stone::sequence(&prepared, &args.times, args.seed, Some(report)))?;
     manifest.timings_ms.insert("frames".into(), clock.lap());
 
-    if mask_source == "auto" {
-        save_png(&prepared.mask.to_image(), dir.join("mask_auto.png"), BitDepth::Eight)?;
+    if let (Some(found), "auto") = (&mask, mask_source) {
+        // The object as found; runs dilate it by mask_dilation, as any mask.
+        save_png(&found.to_image(), dir.join("mask_auto.png"), BitDepth::Eight)?;
         manifest.outputs.push("mask_auto.png".into());
     }
     save_png(&prepared.tendency, dir.join("tendency.png"), BitDepth::Eight)?;

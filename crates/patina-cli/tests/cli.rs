@@ -524,6 +524,44 @@ fn decay_writes_every_output_and_is_the_same_on_any_thread_count() {
 }
 
 #[test]
+fn stone_without_a_mask_finds_the_stone_erodes_it_and_keeps_the_background() {
+    let dir = scratch("stone-auto");
+    let (w, h) = (200, 150);
+    let slab = patina::Mask::from_fn(w, h, |x, y| ((x as f32 - 100.0) / 60.0).powi(2) + ((y as f32 - 80.0) / 50.0).powi(2) < 1.0);
+    let photo = patina::Image::from_fn(w, h, 3, |x, y, p| {
+        let n = patina::samples::value_noise(5, x as f32 / 2.0, y as f32 / 2.0);
+        let rgb = if slab.get(x, y) {
+            let v = 0.45 + 0.25 * n + if (x / 9 + y / 11) % 2 == 0 { 0.1 } else { 0.0 };
+            [v, v * 0.98, v * 0.94]
+        } else if y < 40 {
+            [0.45, 0.62, 0.9]
+        } else {
+            [0.2 + 0.1 * n, 0.45 + 0.2 * n, 0.12]
+        };
+        p.copy_from_slice(&rgb);
+    });
+    let img = dir.join("photo.png");
+    save_png(&photo, &img, BitDepth::Eight).unwrap();
+    let out = dir.join("a");
+    let r = patina(&["stone", s(&img), "-o", s(&out), "--times", "0,100", "--erosion-speed", "0.003", "--n", "200"], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let found = patina::Mask::from_image(&load(out.join("mask_auto.png")).unwrap());
+    let wrong = (0..w * h).filter(|&i| found.bits()[i] != slab.bits()[i]).count();
+    assert!(wrong * 50 < slab.count(), "{wrong} of {} stone pixels wrong", slab.count());
+    let area = |name: &str| load(out.join(name)).unwrap().data().iter().filter(|&&v| v > 0.5).count();
+    assert!(area("mask_t001.png") < area("mask_t000.png"), "an automatic mask's silhouette erodes");
+    let manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    let dilation = manifest["params"]["mask_dilation"].as_u64().unwrap() as usize;
+    let (last, input) = (load(out.join("frames/001.png")).unwrap(), load(&img).unwrap());
+    let object = found.dilate(dilation);
+    for (i, &m) in object.bits().iter().enumerate() {
+        if !m {
+            assert_eq!(last.pixel(i % w, i / w), input.pixel(i % w, i / w), "background changed at {}, {}", i % w, i / w);
+        }
+    }
+}
+
+#[test]
 fn decay_mask_auto_cuts_out_the_object_and_keeps_the_rest() {
     let dir = scratch("decay-auto");
     let (w, h) = (160, 120);

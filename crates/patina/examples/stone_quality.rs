@@ -3,7 +3,8 @@
 //!     cargo run --release -p patina --example stone_quality -- PHOTO...
 //!
 //! Each photo is weathered with its automatic mask (as `patina stone`
-//! does without `--mask`) at t = 100 and 200. Over the object (its mask
+//! does without `--mask`, but with the silhouette kept, so the figures
+//! measure the surface's wear only) at t = 100 and 200. Over the object (its mask
 //! shrunk by the feather), the table gives the carving band's energy
 //! (luminance between Gaussians of 1.5 and 6 px) and the sub-pixel grain's
 //! (luminance minus a Gaussian of 1 px), each over the input's, and the

@@ -24,8 +24,9 @@ use crate::image::{Image, Mask};
 use crate::rng::Rng;
 
 /// Feather (px) a run on an automatic mask uses: the weathering fades in
-/// over this many pixels from the mask's edge, where the mask may be off.
-pub const AUTO_FEATHER: f32 = 8.0;
+/// over this many pixels from the mask's edge, where the cut may be a
+/// pixel off.
+pub const AUTO_FEATHER: f32 = 2.0;
 
 /// Longer side of the working copy the clusters are found on.
 const WORK_SIDE: usize = 192;
