@@ -100,5 +100,14 @@ fn main() {
         assert_eq!(frames.len(), 8);
         println!("| {} | {prepare_s:.2} s | {frames_s:.2} s | {:.2} s |", class.name(), prepare_s + frames_s);
     }
+    let t = Instant::now();
+    let found = patina::image::grabcut::salient_object(&photo, None, 1);
+    let both = found.bits().iter().zip(mask.bits()).filter(|(a, b)| **a && **b).count();
+    let either = found.bits().iter().zip(mask.bits()).filter(|(a, b)| **a || **b).count();
+    println!(
+        "| `--mask auto` (main object; IoU {:.3} with the mask) | {:.2} s | | |",
+        both as f64 / either.max(1) as f64,
+        t.elapsed().as_secs_f64()
+    );
     println!("| peak memory | {:.0} MiB |", peak_rss_mib());
 }
