@@ -133,7 +133,7 @@ pub fn run(args: Args) -> Result<()> {
                     return Err(Error::InvalidInput(format!("--point {x},{y} is outside the {}x{} photo", photo.width(), photo.height())));
                 }
             }
-            Some(grabcut::salient_object(&photo, args.point, args.seed))
+            Some(grabcut::salient_object(&photo, args.point))
         }
         _ => load_optional(&mask_file)?.map(|m| Mask::from_image(&luminance(&m))),
     };

@@ -111,7 +111,7 @@ pub fn run(args: Args) -> Result<()> {
         (Some(file), _) => (Some(Mask::from_image(&patina::image::color::luminance(&crate::input::load(file)?))), "file"),
         (None, "none") => (Some(Mask::filled(photo.width(), photo.height(), true)), "none"),
         (None, _) if has_alpha => (None, "alpha"),
-        (None, _) => (Some(stone::select::auto_mask(&photo, args.seed)), "auto"),
+        (None, _) => (Some(stone::select::auto_mask(&photo)), "auto"),
     };
     let sample = args.rough_sample.as_ref().map(crate::input::load).transpose()?;
     manifest.timings_ms.insert("load".into(), clock.lap());

@@ -101,7 +101,7 @@ fn main() {
         println!("| {} | {prepare_s:.2} s | {frames_s:.2} s | {:.2} s |", class.name(), prepare_s + frames_s);
     }
     let t = Instant::now();
-    let found = patina::image::grabcut::salient_object(&photo, None, 1);
+    let found = patina::image::grabcut::salient_object(&photo, None);
     let both = found.bits().iter().zip(mask.bits()).filter(|(a, b)| **a && **b).count();
     let either = found.bits().iter().zip(mask.bits()).filter(|(a, b)| **a || **b).count();
     println!(

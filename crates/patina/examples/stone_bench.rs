@@ -40,7 +40,7 @@ fn main() {
     });
     let params = StoneParams::default();
     let t = Instant::now();
-    let found = stone::select::auto_mask(&photo, 1);
+    let found = stone::select::auto_mask(&photo);
     let select_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let prep = stone::prepare(&photo, Some(&mask), None, &params).expect("prepare");

@@ -28,7 +28,7 @@ fn main() {
     println!("|---|---:|---:|---:|---:|");
     for path in std::env::args().skip(1) {
         let photo = io::load(&path).expect("photo");
-        let mask = select::auto_mask(&photo, 0);
+        let mask = select::auto_mask(&photo);
         let params = StoneParams { erosion: false, feather: select::AUTO_FEATHER, ..Default::default() };
         let prep = stone::prepare(&photo, Some(&mask), None, &params).expect("prepare");
         let frames = stone::sequence(&prep, &[0.0, 100.0, 200.0], 0, None).expect("sequence");

@@ -34,18 +34,22 @@ const WORK_SIDE: usize = 192;
 const CLUSTERS: usize = 8;
 /// The Otsu chroma threshold is kept within this range (Lab units).
 const CHROMA_RANGE: (f32, f32) = (6.0, 20.0);
+/// How far (Lab a, b units) a stone cluster's colour may lie from the
+/// main stone cluster's.
+const HUE_SPREAD: f32 = 8.0;
 /// Majority-vote passes over the working labels.
 const SMOOTHING: usize = 3;
 
-/// The stone object in `photo` (sRGB-encoded RGB). `seed` drives the
-/// cluster initialisation only.
-pub fn auto_mask(photo: &Image, seed: u64) -> Mask {
+/// The stone object in `photo` (sRGB-encoded RGB). It depends on the
+/// photo only: the clusterings tried are seeded by fixed numbers, so a
+/// run's `--seed` changes the weathering, not the object.
+pub fn auto_mask(photo: &Image) -> Mask {
     let (w, h) = photo.size();
     let scale = (WORK_SIDE as f32 / w.max(h) as f32).min(1.0);
     let (sw, sh) = (((w as f32 * scale).round() as usize).max(1), ((h as f32 * scale).round() as usize).max(1));
     let small = resize(&photo.select_channels(0..photo.channels().min(3)), sw, sh, Filter::Linear).expect("a smaller size");
     let features = features(&to_lab(&small));
-    let centres = kmeans(&features, seed);
+    let centres = best_clustering(&features);
     let labels: Vec<usize> = features.iter().map(|f| nearest(f, &centres)).collect();
     let chroma: Vec<f32> = features.iter().map(|f| f[1].hypot(f[2])).collect();
     let threshold = filter::otsu(&chroma).clamp(CHROMA_RANGE.0, CHROMA_RANGE.1);
@@ -61,8 +65,16 @@ pub fn auto_mask(photo: &Image, seed: u64) -> Mask {
         }
     }
     let (central_total, border_total) = (central.iter().sum::<f64>(), border.iter().sum::<f64>().max(1.0));
-    let stone_cluster: Vec<bool> =
+    let candidate: Vec<bool> =
         (0..centres.len()).map(|k| grey(&centres[k]) && central[k] / central_total >= border[k] / border_total).collect();
+    // One stone has one hue, in several shading levels: the candidates
+    // are grouped by hue (within HUE_SPREAD in a, b of a group's founder),
+    // and the group holding most of the centre is the stone. A grey-brown
+    // board the object stands on is as grey as the stone but not of its hue.
+    let same_hue = |a: usize, b: usize| (centres[a][1] - centres[b][1]).hypot(centres[a][2] - centres[b][2]) <= HUE_SPREAD;
+    let weight = |m: usize| -> f64 { (0..centres.len()).filter(|&k| candidate[k] && same_hue(k, m)).map(|k| central[k]).sum() };
+    let main = (0..centres.len()).filter(|&m| candidate[m]).max_by(|&a, &b| weight(a).total_cmp(&weight(b)));
+    let stone_cluster: Vec<bool> = (0..centres.len()).map(|k| main.is_some_and(|m| candidate[k] && same_hue(k, m))).collect();
     let mut stone: Vec<bool> = labels.iter().map(|&l| stone_cluster[l]).collect();
     for _ in 0..SMOOTHING {
         stone = region::majority(&stone, sw, sh);
@@ -70,7 +82,7 @@ pub fn auto_mask(photo: &Image, seed: u64) -> Mask {
     let object = region::fill_holes(&region::subject(&stone, sw, sh, None), sw, sh);
     // The clusters' object seeds GrabCut, which finds the outline.
     let rgb = photo.select_channels(0..photo.channels().min(3));
-    grabcut::cut_out(&rgb, &Mask::from_fn(sw, sh, |x, y| object[y * sw + x]), L_WEIGHT, None, seed)
+    grabcut::cut_out(&rgb, &Mask::from_fn(sw, sh, |x, y| object[y * sw + x]), L_WEIGHT, None)
 }
 
 /// Lightness counts half as much as the colour axes: shading varies L over
@@ -109,6 +121,22 @@ fn distance(a: &[f32; 4], b: &[f32; 4]) -> f32 {
 fn nearest(f: &[f32; 4], centres: &[[f32; 4]]) -> usize {
     (0..centres.len()).min_by(|&i, &j| distance(f, &centres[i]).total_cmp(&distance(f, &centres[j]))).unwrap_or(0)
 }
+
+/// The clustering of lowest within-cluster squared distance over
+/// [`RESTARTS`] k-means runs: a single run's local optimum decided
+/// whether a board under the object joined the stone.
+fn best_clustering(features: &[[f32; 4]]) -> Vec<[f32; 4]> {
+    let spread = |centres: &[[f32; 4]]| -> f64 { features.iter().map(|f| distance(f, &centres[nearest(f, centres)]) as f64).sum() };
+    (0..RESTARTS as u64)
+        .map(|r| kmeans(features, r))
+        .map(|c| (spread(&c), c))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, c)| c)
+        .expect("at least one run")
+}
+
+/// k-means runs [`best_clustering`] chooses from.
+const RESTARTS: usize = 8;
 
 /// k-means with k-means++ seeding (seeded generator), 12 Lloyd iterations.
 fn kmeans(features: &[[f32; 4]], seed: u64) -> Vec<[f32; 4]> {
@@ -169,7 +197,7 @@ mod tests {
             };
             p.copy_from_slice(&rgb);
         });
-        let mask = auto_mask(&photo, 1);
+        let mask = auto_mask(&photo);
         let truth = Mask::from_fn(w, h, inside);
         let wrong = (0..w * h).filter(|&i| mask.bits()[i] != truth.bits()[i]).count();
         assert!(wrong * 100 <= truth.count() * 3, "{wrong} of {} object pixels misclassified", truth.count());
@@ -210,7 +238,7 @@ mod tests {
             }
             p.copy_from_slice(&acc);
         });
-        let mask = auto_mask(&photo, 2);
+        let mask = auto_mask(&photo);
         let truth = Mask::from_fn(w, h, |x, y| level(x as f32 + 0.5, y as f32 + 0.5) < 1.0);
         let wrong = (0..w * h).filter(|&i| mask.bits()[i] != truth.bits()[i]).count();
         // The outline is about 950 px long: under half a pixel of error on
