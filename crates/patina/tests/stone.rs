@@ -239,3 +239,37 @@ fn the_same_seed_gives_the_same_frames_and_bad_input_is_refused() {
     let bad = StoneParams { eta: -1.0, ..params };
     assert!(stone::prepare(&photo(), Some(&slab()), None, &bad).err().unwrap().to_string().contains("eta"));
 }
+
+/// A flat light stone on a flat dark ground: where the silhouette has
+/// eroded, the new outline is anti-aliased on both sides, not a pixel cut.
+/// Across every standing/eroded pixel pair along it, the step in value is
+/// measured against the full stone-to-ground contrast.
+#[test]
+fn the_eroded_outline_is_anti_aliased() {
+    let (w, h) = (160, 140);
+    let object = Mask::from_fn(w, h, |x, y| (30..130).contains(&x) && (30..120).contains(&y));
+    let input = Image::from_fn(w, h, 3, |x, y, p| p.fill(if object.get(x, y) { 0.8 } else { 0.1 }));
+    let params = StoneParams { erosion_speed: 0.004, roughen: false, pits: false, mask_dilation: 0, ..Default::default() };
+    let prep = stone::prepare(&input, Some(&object), None, &params).unwrap();
+    let last = stone::sequence(&prep, &[100.0], 1, None).unwrap().remove(0);
+    let l = luminance(&last.image);
+    let (mut steps, mut sharp) = (0usize, 0usize);
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            // A standing pixel next to an eroded one (not the original outline).
+            if !last.mask.get(x, y) {
+                continue;
+            }
+            for (nx, ny) in [(x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)] {
+                if object.get(nx, ny) && !last.mask.get(nx, ny) {
+                    steps += 1;
+                    if (l.at(x, y, 0) - l.at(nx, ny, 0)).abs() > 0.6 * (0.8 - 0.1) {
+                        sharp += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(steps > 100, "the silhouette should erode: {steps} outline steps");
+    assert!(sharp * 10 < steps, "{sharp} of {steps} steps along the eroded outline are hard cuts");
+}

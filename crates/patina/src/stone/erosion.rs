@@ -8,16 +8,26 @@ use crate::image::{Image, Mask};
 use crate::samples::fractal_noise;
 use rayon::prelude::*;
 
-/// Size (px) of the chips the outline breaks into.
-const CHIP: f32 = 10.0;
+/// Size (px) of the largest chips the outline breaks into; three finer
+/// octaves (down to 2 px) break it further, so the bites vary in size
+/// instead of lining up as a regular scallop (one 10 px scale did).
+const CHIP: f32 = 16.0;
+/// Octaves of the durability noise.
+const CHIP_OCTAVES: usize = 4;
 /// Half side of the exposure window (7 x 7).
 const WINDOW: isize = 3;
 /// Parts thinner than this (px) erode more slowly, in proportion.
 pub const THIN: f32 = 16.0;
 /// Slowest erosion of the thinnest parts, as a share of the full rate.
 const THIN_FLOOR: f32 = 0.15;
-/// Blur (px) of the standing object that sets the outline's anti-aliasing.
-pub const EDGE_SIGMA: f32 = 0.7;
+/// Blur (px) of the standing object whose value is the stone's share of a
+/// pixel on the eroded outline: about 0.7 on the stone's side of a
+/// straight edge and 0.3 on the other, so the outline is about 2 px soft,
+/// like a photo's own edges, and pixel steps are rounded off.
+pub const EDGE_SIGMA: f32 = 1.0;
+/// Standing stone within this many px of the eroded area is blended
+/// across the outline.
+pub const EDGE_BAND: usize = 2;
 
 /// The erosion state: the object still standing, each pixel's remaining
 /// durability and the colours (changed by bleeding).
@@ -35,7 +45,7 @@ pub struct Erosion {
 
 impl Erosion {
     /// Start from `linear` and its object mask. Durabilities are 0.45 to 1.75,
-    /// from a 3-octave noise at [`CHIP`] px stretched twofold, so soft
+    /// from a fractal noise at [`CHIP`] px stretched twofold, so soft
     /// pockets go fast and hard lumps stand: the stone breaks in chips
     /// rather than eroding as a smooth offset curve (0.6 to 1.4, unstretched,
     /// read as a smooth offset).
@@ -43,7 +53,7 @@ impl Erosion {
         let (w, h) = object.size();
         let durability = (0..w * h)
             .map(|i| {
-                let n = fractal_noise(seed ^ 0xd0_0b1e, (i % w) as f32, (i / w) as f32, CHIP, 3);
+                let n = fractal_noise(seed ^ 0xd0_0b1e, (i % w) as f32, (i / w) as f32, CHIP, CHIP_OCTAVES);
                 // Fractal noise gathers near 0.5: stretched, soft and hard stone alternate.
                 0.45 + 1.3 * ((n - 0.5) * 2.0 + 0.5).clamp(0.0, 1.0)
             })

@@ -328,16 +328,25 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
             }
         }
         if erode {
+            // Anti-aliased outline, on both sides of it: the standing stone
+            // near the eroded area and the eroded pixels both get the
+            // background fill behind them and show the stone by the
+            // standing object blurred ([`erosion::EDGE_SIGMA`]), so the cut
+            // is neither a pixel staircase nor a one-sided fade.
             let eroded = Mask::from_fn(w, h, |x, y| prep.mask.get(x, y) && !object.get(x, y));
+            let near = eroded.dilate(erosion::EDGE_BAND);
+            let rim = Mask::from_fn(w, h, |x, y| eroded.get(x, y) || (near.get(x, y) && object.get(x, y)));
             let background = Mask::from_fn(w, h, |x, y| !prep.mask.get(x, y));
-            image = erosion::fill_background(&image, &background, &eroded);
-            // Anti-aliased outline: a removed pixel next to the stone keeps
-            // the share of stone a slightly blurred outline gives it.
+            let filled = erosion::fill_background(&image, &background, &rim);
             let coverage = crate::image::filter::gaussian_blur(&object.to_image(), erosion::EDGE_SIGMA);
-            for idx in set_pixels(&eroded) {
-                let (x, y, a) = (idx % w, idx / w, coverage.data()[idx]);
-                if a > 0.0 {
-                    image.pixel_mut(x, y).iter_mut().zip(weathered.pixel(x, y)).for_each(|(o, &v)| *o = a * encode(v) + (1.0 - a) * *o);
+            for idx in set_pixels(&rim) {
+                let (x, y) = (idx % w, idx / w);
+                let a = coverage.data()[idx].clamp(0.0, 1.0);
+                let fill = filled.pixel(x, y).to_vec();
+                let standing = object.get(x, y);
+                for (c, o) in image.pixel_mut(x, y).iter_mut().enumerate() {
+                    let stone = if standing { *o } else { encode(weathered.at(x, y, c)) };
+                    *o = a * stone + (1.0 - a) * fill[c];
                 }
             }
         }
