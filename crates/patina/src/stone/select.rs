@@ -40,7 +40,8 @@ const HUE_SPREAD: f32 = 8.0;
 /// Majority-vote passes over the working labels.
 const SMOOTHING: usize = 3;
 
-/// The stone object in `photo` (sRGB-encoded RGB). It depends on the
+/// The stone object in `photo` (sRGB-encoded RGB), or the whole photo if
+/// no grey object is found. It depends on the
 /// photo only: the clusterings tried are seeded by fixed numbers, so a
 /// run's `--seed` changes the weathering, not the object.
 pub fn auto_mask(photo: &Image) -> Mask {
@@ -82,7 +83,13 @@ pub fn auto_mask(photo: &Image) -> Mask {
     let object = region::fill_holes(&region::subject(&stone, sw, sh, None), sw, sh);
     // The clusters' object seeds GrabCut, which finds the outline.
     let rgb = photo.select_channels(0..photo.channels().min(3));
-    grabcut::cut_out(&rgb, &Mask::from_fn(sw, sh, |x, y| object[y * sw + x]), L_WEIGHT, None)
+    let found = grabcut::cut_out(&rgb, &Mask::from_fn(sw, sh, |x, y| object[y * sw + x]), L_WEIGHT, None);
+    // No grey object at all (a texture, a painted thing): the whole photo,
+    // as `--mask none`.
+    if found.count() == 0 {
+        return Mask::filled(w, h, true);
+    }
+    found
 }
 
 /// Lightness counts half as much as the colour axes: shading varies L over
@@ -246,5 +253,14 @@ mod tests {
         assert!(wrong < 475, "{wrong} pixels differ from the true object");
         let props = (0..w * h).filter(|&i| mask.bits()[i] && !truth.bits()[i] && tab((i % w) as f32, (i / w) as f32)).count();
         assert!(props < 20, "{props} pixels of the tab or marker taken as stone");
+    }
+
+    #[test]
+    fn a_photo_without_grey_stone_is_taken_whole() {
+        let photo = Image::from_fn(64, 64, 3, |x, y, p| {
+            let n = value_noise(2, x as f32 / 4.0, y as f32 / 4.0);
+            p.copy_from_slice(&[0.6 + 0.2 * n, 0.3 + 0.1 * n, 0.1]);
+        });
+        assert_eq!(auto_mask(&photo).count(), 64 * 64);
     }
 }
