@@ -16,18 +16,21 @@ use std::path::{Path, PathBuf};
 /// How long each frame of sequence.gif is shown.
 const GIF_DELAY_MS: u32 = 400;
 
-/// Parse `X,Y` (integers, may be negative).
-fn parse_offset(s: &str) -> std::result::Result<(i64, i64), String> {
-    let bad = || format!("'{s}' is not X,Y (e.g. 1024,0)");
+/// Parse `X,Y` as two `T`s; `what` describes them in the error.
+fn parse_xy<T: std::str::FromStr>(s: &str, what: &str) -> std::result::Result<(T, T), String> {
+    let bad = || format!("'{s}' is not X,Y{what}");
     let (x, y) = s.split_once(',').ok_or_else(bad)?;
     Ok((x.trim().parse().map_err(|_| bad())?, y.trim().parse().map_err(|_| bad())?))
 }
 
+/// Parse `X,Y` (integers, may be negative).
+fn parse_offset(s: &str) -> std::result::Result<(i64, i64), String> {
+    parse_xy(s, " (e.g. 1024,0)")
+}
+
 /// Parse `X,Y` (non-negative integers).
 fn parse_point(s: &str) -> std::result::Result<(usize, usize), String> {
-    let bad = || format!("'{s}' is not X,Y with X and Y pixel positions >= 0 (e.g. 320,240)");
-    let (x, y) = s.split_once(',').ok_or_else(bad)?;
-    Ok((x.trim().parse().map_err(|_| bad())?, y.trim().parse().map_err(|_| bad())?))
+    parse_xy(s, " with X and Y pixel positions >= 0 (e.g. 320,240)")
 }
 
 fn parse_class(s: &str) -> std::result::Result<DecayClass, String> {

@@ -10,14 +10,13 @@
 //! refits both mixtures to the current labels and re-cuts with
 //! [`GridCut`]; only pixels marked probable may change side.
 //!
-//! Two additions for use without a user: an optional per-pixel prior (log
-//! odds in favour of the foreground, added to the data term, e.g. "stone is
-//! grey"), and [`refine`], which re-cuts only a band around a coarse
-//! outline at full resolution with the coarse level's models, so the
-//! outline follows the photo's own edges, not the coarse grid.
+//! One addition for use without a user: [`refine`], which re-cuts only a
+//! band around a coarse outline at full resolution with the coarse level's
+//! models, so the outline follows the photo's own edges, not the coarse
+//! grid.
 
 use super::color::to_lab;
-use super::maxflow::GridCut;
+use super::maxflow::{self, GridCut};
 use super::region;
 use super::resample::{resize, Filter};
 use super::{Image, Mask};
@@ -73,10 +72,9 @@ pub struct Models {
 }
 
 /// The labels (`true` = foreground) of `features` (3 channels) after
-/// `params.iterations` rounds, and the models they end with. `prior`, if
-/// given, is a per-pixel log-odds bonus for the foreground. `seed` drives
+/// `params.iterations` rounds, and the models they end with. `seed` drives
 /// the mixtures' k-means++ start only.
-pub fn segment(features: &Image, seeds: &[Seed], prior: Option<&[f32]>, params: &GrabCutParams, seed: u64) -> (Vec<bool>, Models) {
+pub fn segment(features: &Image, seeds: &[Seed], params: &GrabCutParams, seed: u64) -> (Vec<bool>, Models) {
     let (w, h) = features.size();
     assert_eq!(seeds.len(), w * h, "one seed per pixel");
     assert!((1..=MAX_COMPONENTS).contains(&params.components), "1 to {MAX_COMPONENTS} components");
@@ -89,7 +87,7 @@ pub fn segment(features: &Image, seeds: &[Seed], prior: Option<&[f32]>, params: 
         if round > 0 {
             models = fit(&z, &labels, params.components, &mut g);
         }
-        let cut = cut(&z, w, h, seeds, prior, &models, &pairs);
+        let cut = cut(&z, w, h, seeds, &models, &pairs);
         if cut == labels {
             break;
         }
@@ -100,7 +98,7 @@ pub fn segment(features: &Image, seeds: &[Seed], prior: Option<&[f32]>, params: 
 
 /// Re-cut the pixels within `band` px of `coarse`'s outline at the
 /// resolution of `features` with `models`; the rest keeps `coarse`'s label.
-pub fn refine(features: &Image, coarse: &Mask, band: usize, prior: Option<&[f32]>, models: &Models, gamma: f32) -> Mask {
+pub fn refine(features: &Image, coarse: &Mask, band: usize, models: &Models, gamma: f32) -> Mask {
     let (w, h) = features.size();
     let (inner, outer) = (coarse.erode(band), coarse.dilate(band));
     let seeds: Vec<Seed> = (0..w * h)
@@ -119,7 +117,7 @@ pub fn refine(features: &Image, coarse: &Mask, band: usize, prior: Option<&[f32]
         .collect();
     let z = points(features);
     let pairs = Pairs::of(&z, w, h, gamma);
-    let labels = cut(&z, w, h, &seeds, prior, models, &pairs);
+    let labels = cut(&z, w, h, &seeds, models, &pairs);
     Mask::from_fn(w, h, |x, y| labels[y * w + x])
 }
 
@@ -184,11 +182,11 @@ pub fn cut_out(rgb: &Image, start: &Mask, lightness: f32, focus: Option<(usize, 
         })
         .collect();
     let params = GrabCutParams::default();
-    let (labels, models) = segment(&small, &seeds, None, &params, MASK_SEED);
+    let (labels, models) = segment(&small, &seeds, &params, MASK_SEED);
     let object = region::fill_holes(&region::subject(&labels, cw, ch, small_focus), cw, ch);
     let coarse = Mask::from_fn(w, h, |x, y| object[scaled(y, h, ch) * cw + scaled(x, w, cw)]);
     let band = ((w.max(h) as f32 / CUT_SIDE as f32).ceil() as usize * 2).max(2);
-    let fine = refine(&features(rgb), &coarse, band, None, &models, params.gamma);
+    let fine = refine(&features(rgb), &coarse, band, &models, params.gamma);
     let r = (w.min(h) / OPENING).max(1);
     let opened = fine.erode(r).dilate(r);
     let filled = region::fill_holes(&region::subject(opened.bits(), w, h, focus), w, h);
@@ -295,8 +293,7 @@ struct Pairs(Vec<[f32; 4]>);
 
 impl Pairs {
     fn of(z: &[Vector3<f64>], w: usize, h: usize, gamma: f32) -> Self {
-        let grid = GridCut::new(w, h);
-        let squared = |i: usize, d: u8| grid.neighbour(i, d).map(|j| (z[i] - z[j]).norm_squared());
+        let squared = |i: usize, d: u8| maxflow::neighbour(w, h, i, d).map(|j| (z[i] - z[j]).norm_squared());
         let (sum, count) =
             (0..w * h).flat_map(|i| (0..4u8).filter_map(move |d| squared(i, d))).fold((0.0f64, 0usize), |(s, n), v| (s + v, n + 1));
         let beta = if sum > 0.0 { count as f64 / (2.0 * sum) } else { 0.0 };
@@ -317,16 +314,15 @@ impl Pairs {
     }
 }
 
-fn cut(z: &[Vector3<f64>], w: usize, h: usize, seeds: &[Seed], prior: Option<&[f32]>, models: &Models, pairs: &Pairs) -> Vec<bool> {
+fn cut(z: &[Vector3<f64>], w: usize, h: usize, seeds: &[Seed], models: &Models, pairs: &Pairs) -> Vec<bool> {
     let costs: Vec<(f32, f32)> = (0..w * h)
         .into_par_iter()
         .map(|i| {
             if seeds[i].fixed() {
                 return (0.0, 0.0);
             }
-            let bonus = prior.map_or(0.0, |p| p[i] as f64);
-            let fg = models.foreground.cost(&z[i]) - bonus.min(0.0);
-            let bg = models.background.cost(&z[i]) + bonus.max(0.0);
+            let fg = models.foreground.cost(&z[i]);
+            let bg = models.background.cost(&z[i]);
             let floor = fg.min(bg);
             ((fg - floor) as f32, (bg - floor) as f32)
         })
@@ -368,23 +364,22 @@ impl Gmm {
     fn cost(&self, z: &Vector3<f64>) -> f64 {
         let mut terms = [f64::NEG_INFINITY; MAX_COMPONENTS];
         for (k, t) in terms.iter_mut().enumerate().take(self.weight.len()) {
-            let d = z - self.mean[k];
-            *t = self.log_norm[k] - 0.5 * (d.transpose() * self.inverse[k] * d)[0];
+            *t = self.log_density(k, z);
         }
         let best = terms.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let rest: f64 = terms[..self.weight.len()].iter().map(|t| (t - best).exp()).sum();
         -(best + rest.ln())
     }
 
+    /// log(pi_k N(z; mu_k, Sigma_k)).
+    fn log_density(&self, k: usize, z: &Vector3<f64>) -> f64 {
+        let d = z - self.mean[k];
+        self.log_norm[k] - 0.5 * (d.transpose() * self.inverse[k] * d)[0]
+    }
+
     /// The component most likely to have drawn `z`.
     fn component(&self, z: &Vector3<f64>) -> usize {
-        (0..self.weight.len())
-            .map(|k| {
-                let d = z - self.mean[k];
-                (k, self.log_norm[k] - 0.5 * (d.transpose() * self.inverse[k] * d)[0])
-            })
-            .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a })
-            .0
+        (0..self.weight.len()).map(|k| (k, self.log_density(k, z))).fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a }).0
     }
 
     /// Weights, means and covariances of the points grouped by `groups`.
@@ -524,7 +519,7 @@ mod tests {
                 }
             })
             .collect();
-        let (labels, _) = segment(&img, &seeds, None, &GrabCutParams::default(), 1);
+        let (labels, _) = segment(&img, &seeds, &GrabCutParams::default(), 1);
         let truth = (0..w * h).filter(|&i| inside(i % w, i / w)).count();
         let wrong = (0..w * h).filter(|&i| labels[i] != inside(i % w, i / w)).count();
         assert!(wrong * 100 < truth * 3, "{wrong} of {truth} wrong");
@@ -544,8 +539,8 @@ mod tests {
         // A blocky coarse mask (8 px blocks) as from a low-resolution level.
         let coarse = Mask::from_fn(w, h, |x, y| inside((x / 8 * 8 + 4) as f32, (y / 8 * 8 + 4) as f32));
         let seeds: Vec<Seed> = coarse.bits().iter().map(|&b| if b { Seed::ProbablyForeground } else { Seed::ProbablyBackground }).collect();
-        let (_, models) = segment(&img, &seeds, None, &GrabCutParams { iterations: 1, ..Default::default() }, 1);
-        let fine = refine(&img, &coarse, 6, None, &models, 50.0);
+        let (_, models) = segment(&img, &seeds, &GrabCutParams { iterations: 1, ..Default::default() }, 1);
+        let fine = refine(&img, &coarse, 6, &models, 50.0);
         let wrong = |m: &Mask| (0..w * h).filter(|&i| m.bits()[i] != inside((i % w) as f32 + 0.5, (i / w) as f32 + 0.5)).count();
         assert!(wrong(&fine) * 10 < wrong(&coarse), "refined {} wrong, coarse {}", wrong(&fine), wrong(&coarse));
     }

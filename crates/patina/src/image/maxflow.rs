@@ -75,9 +75,7 @@ impl GridCut {
 
     /// The neighbour of pixel `i` in direction `d`, if inside the grid.
     pub fn neighbour(&self, i: usize, d: u8) -> Option<usize> {
-        let (dx, dy) = STEPS[d as usize];
-        let (x, y) = ((i % self.width) as isize + dx, (i / self.width) as isize + dy);
-        (x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height).then(|| y as usize * self.width + x as usize)
+        neighbour(self.width, self.height, i, d)
     }
 
     /// Solve; `true` where a pixel ends on the source side of a minimum cut.
@@ -87,6 +85,14 @@ impl GridCut {
         flow.run();
         flow.tree.iter().map(|&t| t == SOURCE).collect()
     }
+}
+
+/// The neighbour of pixel `i` of a `width` x `height` grid in direction
+/// `d` (0-7, see [`GridCut::set_pair`]), if inside the grid.
+pub fn neighbour(width: usize, height: usize, i: usize, d: u8) -> Option<usize> {
+    let (dx, dy) = STEPS[d as usize];
+    let (x, y) = ((i % width) as isize + dx, (i / width) as isize + dy);
+    (x >= 0 && y >= 0 && (x as usize) < width && (y as usize) < height).then(|| y as usize * width + x as usize)
 }
 
 fn capacity(cost: f32) -> i32 {

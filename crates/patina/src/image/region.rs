@@ -2,13 +2,9 @@
 //! hole filling, majority smoothing. Used to clean up automatic object
 //! masks ([`super::grabcut::cut_out`], `stone::select`).
 
-/// The 4-neighbours of (x, y) inside a w x h grid.
-fn neighbours(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
-    let left = (x > 0).then(|| y * w + x - 1);
-    let right = (x + 1 < w).then(|| y * w + x + 1);
-    let up = (y > 0).then(|| (y - 1) * w + x);
-    let down = (y + 1 < h).then(|| (y + 1) * w + x);
-    [left, right, up, down].into_iter().flatten()
+/// The in-image 4-neighbours of (x, y) in a `w` x `h` image.
+pub fn neighbours(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
+    [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)].into_iter().filter(move |&(a, b)| a < w && b < h)
 }
 
 /// 4-connected components of set pixels, as a label per pixel (u32::MAX
@@ -24,7 +20,8 @@ pub fn components(bits: &[bool], w: usize, h: usize) -> (Vec<u32>, usize) {
         label[start] = count as u32;
         stack.push(start);
         while let Some(i) = stack.pop() {
-            for j in neighbours(i % w, i / w, w, h) {
+            for (nx, ny) in neighbours(i % w, i / w, w, h) {
+                let j = ny * w + nx;
                 if bits[j] && label[j] == u32::MAX {
                     label[j] = count as u32;
                     stack.push(j);

@@ -33,10 +33,7 @@ use segment::{Patch, SegmentParams};
 use serde::Serialize;
 use update::{MatchParams, SearchMaps};
 
-/// The in-image 4-neighbours of (x, y) in a `w` x `h` image.
-pub(crate) fn neighbours(x: usize, y: usize, w: usize, h: usize) -> impl Iterator<Item = (usize, usize)> {
-    [(x.wrapping_sub(1), y), (x + 1, y), (x, y.wrapping_sub(1)), (x, y + 1)].into_iter().filter(move |&(a, b)| a < w && b < h)
-}
+pub(crate) use crate::image::region::neighbours;
 
 pub(crate) use crate::image::pixel_bounds as bounds;
 
@@ -342,11 +339,10 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
             for idx in set_pixels(&rim) {
                 let (x, y) = (idx % w, idx / w);
                 let a = coverage.data()[idx].clamp(0.0, 1.0);
-                let fill = filled.pixel(x, y).to_vec();
                 let standing = object.get(x, y);
-                for (c, o) in image.pixel_mut(x, y).iter_mut().enumerate() {
+                for (c, (o, &fill)) in image.pixel_mut(x, y).iter_mut().zip(filled.pixel(x, y)).enumerate() {
                     let stone = if standing { *o } else { encode(weathered.at(x, y, c)) };
-                    *o = a * stone + (1.0 - a) * fill[c];
+                    *o = a * stone + (1.0 - a) * fill;
                 }
             }
         }
