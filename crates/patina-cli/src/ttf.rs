@@ -293,6 +293,9 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(l) = &result.lighting {
         manifest.metrics.insert("lighting".into(), json!(l));
     }
+    if let Some(h) = &result.highlight {
+        manifest.metrics.insert("highlight_removed".into(), json!(h));
+    }
     manifest.metrics.insert("flicker_input".into(), json!(patina::metrics::flicker(&frames)));
     manifest.metrics.insert("flicker_output".into(), json!(patina::metrics::flicker(&result.frames)));
     manifest.inputs = vec![args.input.clone()];

@@ -13,6 +13,7 @@
 pub mod blend;
 pub mod correlate;
 pub mod distance;
+pub mod highlight;
 pub mod lattice;
 pub mod lighting;
 pub mod nnf;

@@ -36,6 +36,7 @@ pub use warp::TimeWarp;
 use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::rng;
+use crate::synth::highlight::{remove_fixed_highlight, HighlightReport};
 use crate::synth::lighting::{relight_sequence, separate_sequence, sequence_luminance, LightingReport, Relight};
 use crate::synth::{PatchMetric, Progress, QuiltParams, QuiltPlan, Synthesis};
 use rayon::prelude::*;
@@ -182,6 +183,10 @@ pub struct Ttf {
     pub warps: Vec<TimeWarp>,
     /// The lighting separation, when one was made.
     pub lighting: Option<LightingReport>,
+    /// The highlight fixed in the input's frame that the lighting
+    /// separation took out ([`crate::synth::highlight`]), when it found one;
+    /// it is not put back, whatever the re-lighting.
+    pub highlight: Option<HighlightReport>,
     /// `None` when every frame was compared (`rank = 0`).
     pub compression: Option<Compression>,
 }
@@ -250,7 +255,11 @@ pub fn synthesize_chunk(
     if params.tile {
         relight.check_tileable("time-lapse", "input's")?;
     }
-    let separated = if matches!(relight, Relight::Keep) { None } else { Some(separate_sequence(frames)?) };
+    let mut separated = if matches!(relight, Relight::Keep) { None } else { Some(separate_sequence(frames)?) };
+    // A highlight fixed in the frame (a specular streak) is lighting too:
+    // it comes out of the detail that is quilted, or every block holding a
+    // piece of it pastes another streak.
+    let highlight = separated.as_mut().and_then(|(_, detail)| remove_fixed_highlight(detail));
     let frames = separated.as_ref().map_or(frames, |(_, detail)| detail.as_slice());
     let weights = if params.balance { frame_balance(frames) } else { vec![1.0; n] };
     let (features, compression) = if params.rank == 0 && params.max_error.is_none() {
@@ -376,7 +385,7 @@ pub fn synthesize_chunk(
         }
         None => None,
     };
-    Ok(Ttf { frames: out, first_frame: chunk.start, plan, warps, compression, lighting })
+    Ok(Ttf { frames: out, first_frame: chunk.start, plan, warps, compression, lighting, highlight })
 }
 
 /// Seam mismatches are clamped to this many median absolute deviations
