@@ -68,7 +68,7 @@ fn main() {
         p.quilt.overlap = Some((v[1], v[1]));
         settings.push((format!("b{}o{}", v[0], v[1]), p));
     }
-    println!("| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | seams first / 10% / mid | lighting | time s |");
+    println!("| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | seams first / f2 / 10% / mid | lighting | time s |");
     println!("|---|---|---:|---:|---:|---:|---|---|---:|");
     for (name, frames) in &sequences {
         let (w, h) = frames[0].size();
@@ -84,7 +84,7 @@ fn main() {
             let o = &out.frames;
             let rep = repeated_share(&o[n / 2], 9, 16, 1).expect("repeats");
             let (cuts, interior) = cut_lines(&out.plan.labels(), 2 * w, 2 * h);
-            let seams: Vec<String> = [0, n / 10, n / 2]
+            let seams: Vec<String> = [0, 2.min(n - 1), n / 10, n / 2]
                 .iter()
                 .map(|&t| {
                     let near = times_around(frames, t);

@@ -315,7 +315,12 @@ pub fn synthesize_chunk(
     // one-sided window gave frame 0 the seams of frames 0-8, a jigsaw of
     // tone steps on copper_patinating and rusting_steel, whose first frames
     // change fast (tone steps along the cuts 1.5x the blocks' insides,
-    // now 0.9-0.95x). Tried and not kept: keys spaced by the input's pace
+    // now 0.9-0.95x). The same holds for any burst of change (a frame
+    // that changes from or to its neighbour more than BURST times the
+    // sequence's mean change): copper_patinating's frames 1-3, where
+    // salt crust covers half the plate in two frames, showed the keys'
+    // interpolated seams as a jigsaw of dark and pink blocks, so burst
+    // frames are keys solved on their own frame. Tried and not kept: keys spaced by the input's pace
     // (no visible gain once blocks keep in step, more flicker on the
     // vignetted test), and the last key on its own frame too (1.6-1.78x
     // the input's frame-to-frame change there, against 1.4-1.6x).
@@ -325,7 +330,9 @@ pub fn synthesize_chunk(
     // steps are what the blend removes.
     let corrections: Vec<(usize, Vec<f32>)> = if params.quilt.blend && params.quilt.boundary_cut && !params.tile {
         let positions = plan.source_positions();
-        let mut keys: Vec<usize> = (0..out_frames).step_by(KEY_STEP).collect();
+        // Frames of a burst are keys of their own (below).
+        let bursts = if rate.is_none() { burst_frames(frames) } else { Vec::new() };
+        let mut keys: Vec<usize> = (0..out_frames).filter(|&t| t % KEY_STEP == 0 || bursts.contains(&t)).collect();
         if keys.last() != Some(&(out_frames - 1)) {
             keys.push(out_frames - 1);
         }
@@ -336,8 +343,8 @@ pub fn synthesize_chunk(
             .to_vec()
             .into_par_iter()
             .map(|t| {
-                // The first key's own frame only (see above).
-                let window = if t == 0 { 0..1 } else { t.saturating_sub(KEY_STEP)..(t + KEY_STEP + 1).min(out_frames) };
+                // The first key's and a burst's own frame only (see above).
+                let window = if t == 0 || bursts.contains(&t) { t..t + 1 } else { t.saturating_sub(KEY_STEP)..(t + KEY_STEP + 1).min(out_frames) };
                 let k = 1.0 / window.len() as f32;
                 let mut mean = Image::new(width, height, frames[0].channels());
                 let mut src = Image::new(frames[0].width(), frames[0].height(), frames[0].channels());
@@ -393,6 +400,29 @@ pub fn synthesize_chunk(
 /// ([`crate::synth::blend::blend_seams`]), so spots growing across a seam
 /// send no changing glow around them while whole-seam tone steps are hidden.
 const SEAM_OUTLIER: f32 = 3.0;
+
+/// A frame whose change from or to its neighbour is more than this many
+/// times the sequence's mean change is a burst: its seams are blended on
+/// its own ([`synthesize`]). copper_patinating's frames 0-3 are bursts
+/// (changes 2.6-5.2x the mean), rusting_steel's fast last rust growth
+/// (frames 83-96) too, growing_sprouts' jerks only at 42-43 and 58-59.
+/// At 2 the vignetted rust test's frame-to-frame change rose to 1.68x the
+/// input's (bound 1.6x): each frame blended on its own lets the glow
+/// around spots growing across a seam move.
+const BURST: f64 = 2.5;
+
+/// The frames of `frames` in a burst of change (see [`BURST`]).
+fn burst_frames(frames: &[Image]) -> Vec<usize> {
+    let change = frame_changes(frames);
+    let mean = change.iter().sum::<f64>() / change.len().max(1) as f64;
+    (0..frames.len())
+        .filter(|&t| {
+            let before = t.checked_sub(1).map_or(0.0, |u| change[u]);
+            let after = change.get(t).copied().unwrap_or(0.0);
+            mean > 0.0 && before.max(after) > BURST * mean
+        })
+        .collect()
+}
 
 /// Frames between the key frames seams are blended at, and on either side
 /// of a key whose mean it is blended on ([`synthesize`]).
