@@ -186,7 +186,7 @@ pub fn relight(detail: &Image, sep: &Separation, how: Relight) -> Result<Image> 
 /// The fixed part is [`separate`]'s field of the frames' temporal mean. The
 /// drift is each frame's own very-low-pass log luminance ([`DRIFT_SIGMA`])
 /// minus its mean over all frames, averaged over [`SEQUENCE_WINDOW`] of the
-/// frames on either side. Each frame is divided by both. One field for all
+/// frames on either side, those with a like drift only ([`DRIFT_EDGE`]). Each frame is divided by both. One field for all
 /// frames left copper's first frames, bright on one side and dark on the
 /// other, as a patchwork of bright and dark blocks (the mean was dominated
 /// by the later, evenly dull patina); a per-frame field at the fixed
@@ -209,10 +209,21 @@ pub fn separate_sequence(frames: &[Image]) -> Result<(Separation, Vec<Image>)> {
     let details = (0..n)
         .into_par_iter()
         .map(|t| {
+            // The neighbours' drifts, each weighted by how like this
+            // frame's it is (a bilateral filter in time).
             let window = &drifts[t.saturating_sub(half)..(t + half + 1).min(n)];
-            let k = 1.0 / window.len() as f32;
+            let own = &drifts[t];
+            let weights: Vec<f32> = window
+                .iter()
+                .map(|d| {
+                    let ms = d.iter().zip(own).map(|(a, b)| ((a - b) as f64).powi(2)).sum::<f64>() / own.len().max(1) as f64;
+                    (-ms / (2.0 * f64::from(DRIFT_EDGE).powi(2))).exp() as f32
+                })
+                .collect();
+            let total: f32 = weights.iter().sum();
             let mut field: Vec<f32> = sep.log_field.data().iter().zip(&mean_drift).map(|(f, m)| f - m).collect();
-            for d in window {
+            for (d, wt) in window.iter().zip(&weights) {
+                let k = wt / total;
                 field.iter_mut().zip(d).for_each(|(g, v)| *g += k * v);
             }
             field.iter_mut().for_each(|g| *g = (-*g).exp());
@@ -224,9 +235,52 @@ pub fn separate_sequence(frames: &[Image]) -> Result<(Separation, Vec<Image>)> {
     Ok((sep, details))
 }
 
+/// Frames on either side whose mean brightness a frame's is steadied to
+/// ([`steady_exposure`]).
+pub const EXPOSURE_HALF: usize = 3;
+
+/// Take a capture's exposure flicker out of a sequence in place: each
+/// frame is scaled so its mean luminance is the median of the means of
+/// the frames within [`EXPOSURE_HALF`] of it (fewer near the ends, so the
+/// first and last frames are left as they are). A running median keeps the
+/// sequence's own slow brightening or darkening (rust darkening a plate)
+/// and its steps, and drops single-frame jumps: rusting_steel's exposure
+/// jumps by up to 9% for one frame every few (means 215, 209, 207, 229,
+/// 211, 211, 228, ...), and blocks that time jitter showed at different
+/// frames then differed by that much, a patchwork of bright and grey
+/// blocks in the first frames. The drift field ([`separate_sequence`])
+/// is relative to each frame's mean, so it does not see this. Returns the
+/// largest correction, |gain - 1|.
+pub fn steady_exposure(frames: &mut [Image]) -> f32 {
+    let means: Vec<f32> = frames.par_iter().map(|f| mean(&luminance(f))).collect();
+    let n = means.len();
+    let gains: Vec<f32> = (0..n)
+        .map(|t| {
+            // A window centred on the frame (narrower at the ends), so a
+            // ramp's median is the frame's own mean.
+            let half = EXPOSURE_HALF.min(t).min(n - 1 - t);
+            let mut near: Vec<f32> = means[t - half..=t + half].to_vec();
+            near.sort_by(f32::total_cmp);
+            let median = near[near.len() / 2];
+            if means[t] > 0.0 { median / means[t] } else { 1.0 }
+        })
+        .collect();
+    frames.par_iter_mut().zip(&gains).for_each(|(f, &g)| f.data_mut().iter_mut().for_each(|v| *v *= g));
+    gains.iter().map(|g| (g - 1.0).abs()).fold(0.0, f32::max)
+}
+
 /// Share of a sequence's frames, on either side of a frame, whose lighting
 /// drift is averaged into its own ([`separate_sequence`]).
 pub const SEQUENCE_WINDOW: f32 = 1.0 / 24.0;
+
+/// RMS difference of two frames' drifts (log luminance) at which the one
+/// counts for the other's average with weight e^(-1/2): frames whose light
+/// jumped (rusting_steel's exposure alternates by 0.04 between frame
+/// pairs, copper_patinating's first frames change by 0.08-0.16) are not
+/// averaged together, so no frame keeps a share of its neighbours' light,
+/// which quilting scattered as a patchwork of bright and grey blocks.
+/// Steady drifts differ by under 0.003 between frames.
+pub const DRIFT_EDGE: f32 = 0.01;
 
 /// Sigma of the drift's low-pass, as a share of the shorter side: a third,
 /// so it follows a light that moves across the frame, not the content.
@@ -330,6 +384,30 @@ mod tests {
     use crate::metrics::nonstationarity;
     use crate::samples;
     use crate::synth::{OptimizeParams, QuiltParams, Synthesis};
+
+    #[test]
+    fn exposure_jumps_are_steadied_and_the_slow_darkening_is_kept() {
+        // A texture that darkens by 30% over 30 frames, with every fifth
+        // frame exposed 10% brighter.
+        let base = samples::stucco(48, 48, 2);
+        let mut frames: Vec<Image> = (0..30)
+            .map(|t| {
+                let trend = 1.0 - 0.3 * t as f32 / 29.0;
+                let flash = if t % 5 == 2 { 1.1 } else { 1.0 };
+                base.map(|v| v * trend * flash)
+            })
+            .collect();
+        let base_mean = mean(&luminance(&base));
+        let worst = steady_exposure(&mut frames);
+        assert!((worst - (1.0 - 1.0 / 1.1)).abs() < 0.01, "largest correction {worst}");
+        for (t, f) in frames.iter().enumerate() {
+            let trend = base_mean * (1.0 - 0.3 * t as f32 / 29.0);
+            let m = mean(&luminance(f));
+            // Within 2.5% of the trend (a median of 7 frames on a ramp is
+            // the middle frame's, so only the flashed frames move).
+            assert!((m / trend - 1.0).abs() < 0.025, "frame {t}: mean {m}, trend {trend}");
+        }
+    }
 
     #[test]
     fn flat_relighting_removes_most_of_a_vignette_and_ramp() {

@@ -37,7 +37,7 @@ use crate::error::{Error, Result};
 use crate::image::Image;
 use crate::rng;
 use crate::synth::highlight::{remove_fixed_highlight, HighlightReport};
-use crate::synth::lighting::{relight_sequence, separate_sequence, sequence_luminance, LightingReport, Relight};
+use crate::synth::lighting::{relight_sequence, separate_sequence, sequence_luminance, steady_exposure, LightingReport, Relight};
 use crate::synth::{PatchMetric, Progress, QuiltParams, QuiltPlan, Synthesis};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -187,6 +187,10 @@ pub struct Ttf {
     /// separation took out ([`crate::synth::highlight`]), when it found one;
     /// it is not put back, whatever the re-lighting.
     pub highlight: Option<HighlightReport>,
+    /// The largest exposure correction the lighting separation made to a
+    /// frame ([`crate::synth::lighting::steady_exposure`]), as |gain - 1|;
+    /// 0 without a separation.
+    pub exposure_flicker: f32,
     /// `None` when every frame was compared (`rank = 0`).
     pub compression: Option<Compression>,
 }
@@ -260,6 +264,9 @@ pub fn synthesize_chunk(
     // it comes out of the detail that is quilted, or every block holding a
     // piece of it pastes another streak.
     let highlight = separated.as_mut().and_then(|(_, detail)| remove_fixed_highlight(detail));
+    // So is the capture's exposure flicker: time jitter would show blocks
+    // of differently exposed frames side by side.
+    let exposure_flicker = separated.as_mut().map_or(0.0, |(_, detail)| steady_exposure(detail));
     let frames = separated.as_ref().map_or(frames, |(_, detail)| detail.as_slice());
     let weights = if params.balance { frame_balance(frames) } else { vec![1.0; n] };
     let (features, compression) = if params.rank == 0 && params.max_error.is_none() {
@@ -392,7 +399,7 @@ pub fn synthesize_chunk(
         }
         None => None,
     };
-    Ok(Ttf { frames: out, first_frame: chunk.start, plan, warps, compression, lighting, highlight })
+    Ok(Ttf { frames: out, first_frame: chunk.start, plan, warps, compression, lighting, highlight, exposure_flicker })
 }
 
 /// Seam mismatches are clamped to this many median absolute deviations
