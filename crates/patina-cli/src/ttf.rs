@@ -50,7 +50,7 @@ pub struct Args {
     /// Time jitter E (eqs. 6-7): each block's clock drifts randomly by at most E frames (less while the whole surface changes fast), so copies of one block do not change in lockstep; frame by frame a block follows its own drift where that is invisible and falls into step with its neighbours where a change crosses its seam (dynamic programming over eq. 6's steps); times are whole frames; 0 = off [default: a twelfth of the frames]
     #[arg(long, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 2000.0))]
     pub jitter: Option<f32>,
-    /// Lighting (section 5.3): keep = quilt the frames as they are; flat = divide out the illumination (the frames' mean field, such as a vignette or a flash hot-spot, plus each frame's slow drift), quilt the detail and light the output evenly; stretch = the same, then put the input's lighting back stretched to the output; auto = flat when the input's large-scale variation is above 0.08 and its shorter side at least 96 px, else keep.
+    /// Lighting (section 5.3): keep = quilt the frames as they are; flat = divide out the illumination (the frames' mean field, such as a vignette or a flash hot-spot, plus each frame's slow drift), the capture's exposure flicker and a specular streak fixed in the frame, quilt the detail and light the output evenly; stretch = the same, then put the input's lighting back stretched to the output; auto = flat when the input's large-scale variation is above 0.08 and its shorter side at least 96 px, else keep.
     #[arg(long, value_enum, default_value_t = LightingArg::Auto)]
     pub lighting: LightingArg,
     /// Join blocks with the paper's cut only: no gradient-domain blending of the seams.

@@ -20,10 +20,15 @@
 //!   lighting-aware synthesis ([`crate::synth::lighting`]): the frames are
 //!   divided by the illumination of their temporal mean, the detail is
 //!   quilted, and the output is re-lit (flat by default). Automatic when
-//!   the input's large-scale variation is high.
+//!   the input's large-scale variation is high. The same separation takes
+//!   out the capture's exposure flicker
+//!   ([`crate::synth::lighting::steady_exposure`]) and a specular streak
+//!   fixed in the frame ([`crate::synth::highlight`]), which quilting
+//!   would otherwise paste with every block.
 //! - Seams hidden in the gradient domain ([`crate::synth::blend`]) at key
-//!   frames every 8 frames (the first solved on frame 0 alone),
-//!   interpolated between, so no seam flickers.
+//!   frames every 8 frames (the first, and every frame of a burst of
+//!   change, solved on its own frame), interpolated between, so no seam
+//!   flickers.
 
 pub mod rate;
 pub mod svd;
