@@ -292,8 +292,6 @@ pub fn run(args: Args) -> Result<()> {
     }
     if let Some(l) = &result.lighting {
         manifest.metrics.insert("lighting".into(), json!(l));
-    }
-    if result.lighting.is_some() {
         manifest.metrics.insert("exposure_flicker_removed".into(), json!(result.exposure_flicker));
     }
     if let Some(h) = &result.highlight {

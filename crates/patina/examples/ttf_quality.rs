@@ -68,7 +68,9 @@ fn main() {
         p.quilt.overlap = Some((v[1], v[1]));
         settings.push((format!("b{}o{}", v[0], v[1]), p));
     }
-    println!("| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | seams first / f2 / 10% / mid | lighting | time s |");
+    println!(
+        "| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | seams first / f2 / 10% / mid | lighting | time s |"
+    );
     println!("|---|---|---:|---:|---:|---:|---|---|---:|");
     for (name, frames) in &sequences {
         let (w, h) = frames[0].size();

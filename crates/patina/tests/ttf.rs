@@ -287,7 +287,9 @@ fn tone_steps(img: &Image, labels: &[u32]) -> f64 {
         (x + 1 < w && labels[y * w + x + 1] != k) || (y + 1 < h && labels[(y + 1) * w + x] != k)
     };
     let cuts: Vec<bool> = (0..w * h).map(|i| cut(i % w, i / w)).collect();
-    let near = |x: usize, y: usize| (y.saturating_sub(4)..(y + 5).min(h)).any(|yy| (x.saturating_sub(4)..(x + 5).min(w)).any(|xx| cuts[yy * w + xx]));
+    let near = |x: usize, y: usize| {
+        (y.saturating_sub(4)..(y + 5).min(h)).any(|yy| (x.saturating_sub(4)..(x + 5).min(w)).any(|xx| cuts[yy * w + xx]))
+    };
     let (mut on, mut non, mut off, mut noff) = (0.0f64, 0usize, 0.0f64, 0usize);
     for y in 1..h - 1 {
         for x in 1..w - 1 {

@@ -186,10 +186,11 @@ pub fn relight(detail: &Image, sep: &Separation, how: Relight) -> Result<Image> 
 /// The fixed part is [`separate`]'s field of the frames' temporal mean. The
 /// drift is each frame's own very-low-pass log luminance ([`DRIFT_SIGMA`])
 /// minus its mean over all frames, averaged over [`SEQUENCE_WINDOW`] of the
-/// frames on either side, those with a like drift only ([`DRIFT_EDGE`]). Each frame is divided by both. One field for all
-/// frames left copper's first frames, bright on one side and dark on the
-/// other, as a patchwork of bright and dark blocks (the mean was dominated
-/// by the later, evenly dull patina); a per-frame field at the fixed
+/// frames on either side, those with a like drift only ([`DRIFT_EDGE`]).
+/// Each frame is divided by both. One field for all frames left copper's
+/// first frames, bright on one side and dark on the other, as a patchwork
+/// of bright and dark blocks (the mean was dominated by the later, evenly
+/// dull patina); a per-frame field at the fixed
 /// part's scale followed the content instead (rust spots), and flickered
 /// at 1.3-1.5x the input's. Returns the separation of the mean frame (its
 /// mean luminance and field serve flat and stretched re-lighting) and the
@@ -262,7 +263,11 @@ pub fn steady_exposure(frames: &mut [Image]) -> f32 {
             let mut near: Vec<f32> = means[t - half..=t + half].to_vec();
             near.sort_by(f32::total_cmp);
             let median = near[near.len() / 2];
-            if means[t] > 0.0 { median / means[t] } else { 1.0 }
+            if means[t] > 0.0 {
+                median / means[t]
+            } else {
+                1.0
+            }
         })
         .collect();
     frames.par_iter_mut().zip(&gains).for_each(|(f, &g)| f.data_mut().iter_mut().for_each(|v| *v *= g));

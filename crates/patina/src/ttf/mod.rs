@@ -301,7 +301,10 @@ pub fn synthesize_chunk(
         .quilt(&quilt)?;
     drop(features);
     let plan = quilted.plan;
-    let warps = warp::seam_aligned(&plan, frames, params.jitter_frames(n), &pace(frames), rng::derive(seed, &[2]));
+    // Each frame's change to the next: it sets the jitter's clock and
+    // which frames are bursts.
+    let changes = frame_changes(frames);
+    let warps = warp::seam_aligned(&plan, frames, params.jitter_frames(n), &clock(&changes), rng::derive(seed, &[2]));
     let render = |t: usize| {
         plan.render_with(frames[0].channels(), |i, (sx, sy), (ox, oy), px| {
             // A jittered time between two frames is rounded to the nearer:
@@ -332,9 +335,9 @@ pub fn synthesize_chunk(
     // sequence's mean change): copper_patinating's frames 1-3, where
     // salt crust covers half the plate in two frames, showed the keys'
     // interpolated seams as a jigsaw of dark and pink blocks, so burst
-    // frames are keys solved on their own frame. Tried and not kept: keys spaced by the input's pace
-    // (no visible gain once blocks keep in step, more flicker on the
-    // vignetted test), and the last key on its own frame too (1.6-1.78x
+    // frames are keys solved on their own frame. Tried and not kept: keys
+    // spaced by the input's pace (no visible gain once blocks keep in
+    // step, more flicker on the vignetted test), and the last key on its own frame too (1.6-1.78x
     // the input's frame-to-frame change there, against 1.4-1.6x).
     // Simplification: a jittered or rate-warped block
     // is continued across its seam with that frame's gradients, not its
@@ -342,8 +345,9 @@ pub fn synthesize_chunk(
     // steps are what the blend removes.
     let corrections: Vec<(usize, Vec<f32>)> = if params.quilt.blend && params.quilt.boundary_cut && !params.tile {
         let positions = plan.source_positions();
-        // Frames of a burst are keys of their own (below).
-        let bursts = if rate.is_none() { burst_frames(frames) } else { Vec::new() };
+        // Frames of a burst are keys of their own (below); not under a
+        // rate map, whose output frames are not the input's times.
+        let bursts = if rate.is_none() { burst_frames(&changes) } else { Vec::new() };
         let mut keys: Vec<usize> = (0..out_frames).filter(|&t| t % KEY_STEP == 0 || bursts.contains(&t)).collect();
         if keys.last() != Some(&(out_frames - 1)) {
             keys.push(out_frames - 1);
@@ -356,7 +360,8 @@ pub fn synthesize_chunk(
             .into_par_iter()
             .map(|t| {
                 // The first key's and a burst's own frame only (see above).
-                let window = if t == 0 || bursts.contains(&t) { t..t + 1 } else { t.saturating_sub(KEY_STEP)..(t + KEY_STEP + 1).min(out_frames) };
+                let window =
+                    if t == 0 || bursts.contains(&t) { t..t + 1 } else { t.saturating_sub(KEY_STEP)..(t + KEY_STEP + 1).min(out_frames) };
                 let k = 1.0 / window.len() as f32;
                 let mut mean = Image::new(width, height, frames[0].channels());
                 let mut src = Image::new(frames[0].width(), frames[0].height(), frames[0].channels());
@@ -423,11 +428,11 @@ const SEAM_OUTLIER: f32 = 3.0;
 /// around spots growing across a seam move.
 const BURST: f64 = 2.5;
 
-/// The frames of `frames` in a burst of change (see [`BURST`]).
-fn burst_frames(frames: &[Image]) -> Vec<usize> {
-    let change = frame_changes(frames);
+/// The frames in a burst of change (see [`BURST`]), from each frame's
+/// change to the next ([`frame_changes`]).
+fn burst_frames(change: &[f64]) -> Vec<usize> {
     let mean = change.iter().sum::<f64>() / change.len().max(1) as f64;
-    (0..frames.len())
+    (0..change.len() + 1)
         .filter(|&t| {
             let before = t.checked_sub(1).map_or(0.0, |u| change[u]);
             let after = change.get(t).copied().unwrap_or(0.0);
@@ -448,10 +453,14 @@ const KEY_STEP: usize = 8;
 /// where the whole surface changes at once (copper turning green in three
 /// frames), where blocks drawn from different times would differ everywhere.
 pub fn pace(frames: &[Image]) -> Vec<f32> {
-    let change = frame_changes(frames);
+    clock(&frame_changes(frames))
+}
+
+/// [`pace`]'s clock from each frame's change to the next.
+fn clock(change: &[f64]) -> Vec<f32> {
     let mean = (change.iter().sum::<f64>() / change.len().max(1) as f64).max(1e-12);
-    let mut clock = vec![0f32; frames.len()];
-    for t in 1..frames.len() {
+    let mut clock = vec![0f32; change.len() + 1];
+    for t in 1..clock.len() {
         clock[t] = clock[t - 1] + (change[t - 1] / mean).max(1.0) as f32;
     }
     clock
