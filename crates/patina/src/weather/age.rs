@@ -77,6 +77,10 @@ pub struct AgeParams {
     /// age by departure from the median repeat instead of by rarity, so
     /// that regular structure never ages.
     pub regular: bool,
+    /// Raise the age of whole regions whose colour belongs to the weathered
+    /// material ([`super::material`]; not in the paper): plain interiors of
+    /// wide damage are not rare patches.
+    pub regions: bool,
 }
 
 /// How a grid cell's minimum distances to the other cells become its age.
@@ -102,6 +106,7 @@ impl Default for AgeParams {
             detail_patch: 5,
             prevalence: Prevalence::Coverage,
             regular: true,
+            regions: true,
         }
     }
 }
@@ -199,6 +204,9 @@ pub fn age_map(img: &Image, params: &AgeParams) -> Result<AgeMap> {
         for (a, d) in map.data_mut().iter_mut().zip(detail.data()) {
             *a = a.max(params.detail * d);
         }
+    }
+    if params.regions {
+        map = super::material::complete_regions(&features.appearance, &map, super::IntactParams::default().weathered_max);
     }
     Ok(AgeMap { map, grid: n, patch: (pw, ph), k, cell_ages, periodicity })
 }
@@ -439,56 +447,88 @@ fn regularity(f: &Features, v: [f32; 2], patch: usize) -> Image {
     Image::from_data(w, h, 1, regular).expect("sizes match")
 }
 
+/// Bins per axis of the appearance histograms.
+const BINS: usize = 16;
+
+/// A 16^3 histogram grid over an image's appearance features (Lab), each
+/// axis spanning the image's own range.
+pub(crate) struct ColourBins {
+    lo: [f32; 3],
+    hi: [f32; 3],
+    axes: usize,
+}
+
+impl ColourBins {
+    /// Bins spanning the range of `appearance`'s first three channels.
+    pub(crate) fn new(appearance: &Image) -> Self {
+        let axes = appearance.channels().min(3);
+        let mut lo = [f32::MAX; 3];
+        let mut hi = [f32::MIN; 3];
+        for p in appearance.data().chunks_exact(appearance.channels()) {
+            for k in 0..axes {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        ColourBins { lo, hi, axes }
+    }
+
+    /// The bin of one pixel's features.
+    pub(crate) fn bin(&self, p: &[f32]) -> usize {
+        let mut b = [0usize; 3];
+        for k in 0..self.axes {
+            let t = if self.hi[k] > self.lo[k] { (p[k] - self.lo[k]) / (self.hi[k] - self.lo[k]) } else { 0.0 };
+            b[k] = ((t * BINS as f32) as usize).min(BINS - 1);
+        }
+        (b[0] * BINS + b[1]) * BINS + b[2]
+    }
+
+    /// The histogram of the pixels in `pick` (all when `None`), smoothed
+    /// by [1 2 1] along each used axis.
+    fn counts(&self, appearance: &Image, pick: Option<&Mask>) -> Vec<f32> {
+        let mut hist = vec![0f32; BINS * BINS * BINS];
+        for (i, p) in appearance.data().chunks_exact(appearance.channels()).enumerate() {
+            if pick.is_none_or(|m| m.bits()[i]) {
+                hist[self.bin(p)] += 1.0;
+            }
+        }
+        let stride = [BINS * BINS, BINS, 1];
+        for &s in &stride[..self.axes] {
+            let mut out = hist.clone();
+            for (i, o) in out.iter_mut().enumerate() {
+                let at = (i / s) % BINS;
+                let mut sum = 2.0 * hist[i];
+                if at > 0 {
+                    sum += hist[i - s];
+                }
+                if at + 1 < BINS {
+                    sum += hist[i + s];
+                }
+                *o = sum / 4.0;
+            }
+            hist = out;
+        }
+        hist
+    }
+
+    /// The smoothed histogram of the pixels in `pick`, summing to 1.
+    pub(crate) fn probabilities(&self, appearance: &Image, pick: Option<&Mask>) -> Vec<f32> {
+        let mut hist = self.counts(appearance, pick);
+        let total: f32 = hist.iter().sum();
+        if total > 0.0 {
+            hist.iter_mut().for_each(|v| *v /= total);
+        }
+        hist
+    }
+}
+
 /// Per pixel, how common its colour is: the count of the image's pixels in
 /// its bin of a 16^3 histogram of the appearance features (smoothed over
 /// the neighbouring bins).
 fn colour_density(appearance: &Image) -> Vec<f32> {
-    const BINS: usize = 16;
-    let c = appearance.channels().min(3);
-    let mut lo = [f32::MAX; 3];
-    let mut hi = [f32::MIN; 3];
-    for p in appearance.data().chunks_exact(appearance.channels()) {
-        for k in 0..c {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let bin = |p: &[f32]| -> [usize; 3] {
-        let mut b = [0usize; 3];
-        for k in 0..c {
-            let t = if hi[k] > lo[k] { (p[k] - lo[k]) / (hi[k] - lo[k]) } else { 0.0 };
-            b[k] = ((t * BINS as f32) as usize).min(BINS - 1);
-        }
-        b
-    };
-    let idx = |b: [usize; 3]| (b[0] * BINS + b[1]) * BINS + b[2];
-    let mut hist = vec![0f32; BINS * BINS * BINS];
-    for p in appearance.data().chunks_exact(appearance.channels()) {
-        hist[idx(bin(p))] += 1.0;
-    }
-    // A [1 2 1] smoothing along each used axis.
-    for axis in 0..c {
-        let mut out = hist.clone();
-        for i in 0..BINS {
-            for j in 0..BINS {
-                for k in 0..BINS {
-                    let b = [i, j, k];
-                    let mut sum = 2.0 * hist[idx(b)];
-                    for d in [-1i64, 1] {
-                        let mut nb = b;
-                        let v = b[axis] as i64 + d;
-                        if (0..BINS as i64).contains(&v) {
-                            nb[axis] = v as usize;
-                            sum += hist[idx(nb)];
-                        }
-                    }
-                    out[idx(b)] = sum / 4.0;
-                }
-            }
-        }
-        hist = out;
-    }
-    appearance.data().chunks_exact(appearance.channels()).map(|p| hist[idx(bin(p))]).collect()
+    let bins = ColourBins::new(appearance);
+    let hist = bins.counts(appearance, None);
+    appearance.data().chunks_exact(appearance.channels()).map(|p| hist[bins.bin(p)]).collect()
 }
 
 /// Share of pixels with the rarest colours that never serve as the

@@ -15,6 +15,7 @@ pub mod features;
 pub mod growth;
 pub mod intact;
 pub mod layers;
+pub mod material;
 pub mod rebuild;
 pub mod sequence;
 pub mod tiles;
