@@ -253,7 +253,6 @@ fn damage_layer(
     params: &SequenceParams,
     seed: u64,
 ) -> Result<Image> {
-    let (w, h) = input.size();
     let patch = params.rebuild.patch;
     if hole.count() == 0 {
         return Ok(input.clone());
@@ -261,38 +260,15 @@ fn damage_layer(
     let source_edge = guide(weathered, band, context)?;
     let target_edge = guide(grown, band, context)?;
     let op = OptimizeParams { patch, levels: Some(3), search_vote_iters: 6, uniformity: 0.0, ..OptimizeParams::default() };
-    let filled = Synthesis::new(input)
+    let mut filled = Synthesis::new(input)
         .fill(input, hole)
         .guides(&source_edge, &target_edge, params.rebuild.guide_weight)
         .seed(rng::derive(seed, &[0xf2]))
         .optimize(&op)?;
-    // Inside a coherent copy (the pixel's match continues at least two of
-    // its four neighbours'), a hole pixel is its match's centre, not the
-    // mean of the overlapping patches' votes: the vote averages candidates
-    // that disagree into a smooth wash (grown interiors had a third of the
-    // input damage's pixel-scale detail). Where copies meet, the vote
-    // stays and hides the seam.
-    let n = input.channels();
-    let nnf = &filled.nnf;
-    let offset = |x: usize, y: usize| {
-        let m = nnf.get(x, y);
-        (m.x as i64 - x as i64, m.y as i64 - y as i64)
-    };
-    let mut out = filled.image;
-    for y in 1..h.saturating_sub(1) {
-        for x in 1..w.saturating_sub(1) {
-            if !hole.get(x, y) {
-                continue;
-            }
-            let o = offset(x, y);
-            let agree = [(x - 1, y), (x + 1, y), (x, y - 1), (x, y + 1)].iter().filter(|&&(u, v)| offset(u, v) == o).count();
-            if agree >= 2 {
-                let m = nnf.get(x, y);
-                out.pixel_mut(x, y).copy_from_slice(&input.pixel(m.x as usize, m.y as usize)[..n]);
-            }
-        }
-    }
-    Ok(out)
+    // Verbatim material inside coherent copies: the mean vote alone left
+    // grown interiors with a third of the input damage's pixel detail.
+    filled.coherent_copies(input, hole);
+    Ok(filled.image)
 }
 
 /// Half-width, in pixels, of the band around the damage's edge whose look
