@@ -50,6 +50,9 @@ pub struct MethodArgs {
     /// Weight of the per-pixel detail term of the age map, which finds thin cracks (0 = paper's grid age only).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub detail: f32,
+    /// Do not raise whole regions whose colour belongs to the weathered material (the plain interior of a wide peel) in the age map; the paper's prevalence age alone.
+    #[arg(long)]
+    pub no_colour_regions: bool,
     /// Treat a fixed share of the most-aged pixels as weathered (the paper: 0.2) [default: automatic, Otsu's cut of the age map].
     #[arg(long, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 0.94))]
     pub discard: Option<f32>,
@@ -77,6 +80,7 @@ impl MethodArgs {
         p.age.k_fraction = (self.k_fraction > 0.0).then_some(self.k_fraction);
         p.age.colour = !self.luminance_only;
         p.age.detail = self.detail;
+        p.age.regions = !self.no_colour_regions;
         p.intact.discard = self.discard;
         p.intact.weathered_max = self.weathered_max;
         p.intact.detect_tiles = !self.no_tiles;

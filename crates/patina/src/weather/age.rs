@@ -27,6 +27,9 @@
 //!   the distance from each pixel's small patch to its nearest patch among
 //!   the clearly intact half of the image (PatchMatch), so thin weathering
 //!   inside an intact cell is found too.
+//! - `regions`: not in the paper. A wide weathering with a plain interior
+//!   is rare only at its rim; [`super::material`] raises the interior by
+//!   the weathered material's colour.
 
 use super::features::Features;
 use super::tiles::{self, Periodicity};

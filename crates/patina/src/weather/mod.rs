@@ -1,7 +1,8 @@
 //! Texture weathering from a single image (Bellini, Kleiman, Cohen-Or,
 //! "Time-varying Weathering in Texture Space", SIGGRAPH 2016).
 //!
-//! - [`age`]: the age map (section 4), what is weathered and how much.
+//! - [`age`]: the age map (section 4), what is weathered and how much;
+//!   [`material`] raises the plain interiors of wide damage by colour.
 //! - [`tiles`] and [`intact`]: the texture before it weathered (section 5).
 //! - [`sequence`]: de-weathering and weathering frames (section 6).
 //! - [`transfer`]: weathering of one texture carried onto another (section 7).
