@@ -190,11 +190,10 @@ pub fn relight(detail: &Image, sep: &Separation, how: Relight) -> Result<Image> 
 /// Each frame is divided by both. One field for all frames left copper's
 /// first frames, bright on one side and dark on the other, as a patchwork
 /// of bright and dark blocks (the mean was dominated by the later, evenly
-/// dull patina); a per-frame field at the fixed
-/// part's scale followed the content instead (rust spots), and flickered
-/// at 1.3-1.5x the input's. Returns the separation of the mean frame (its
-/// mean luminance and field serve flat and stretched re-lighting) and the
-/// frames' detail layers.
+/// dull patina); a per-frame field at the fixed part's scale followed the
+/// content instead (rust spots), and flickered at 1.3-1.5x the input's.
+/// Returns the separation of the mean frame (its mean luminance and field
+/// serve flat and stretched re-lighting) and the frames' detail layers.
 pub fn separate_sequence(frames: &[Image]) -> Result<(Separation, Vec<Image>)> {
     let mean_frame = crate::image::sequence::temporal_mean(frames)?;
     let n = frames.len();

@@ -337,9 +337,9 @@ pub fn synthesize_chunk(
     // interpolated seams as a jigsaw of dark and pink blocks, so burst
     // frames are keys solved on their own frame. Tried and not kept: keys
     // spaced by the input's pace (no visible gain once blocks keep in
-    // step, more flicker on the vignetted test), and the last key on its own frame too (1.6-1.78x
-    // the input's frame-to-frame change there, against 1.4-1.6x).
-    // Simplification: a jittered or rate-warped block
+    // step, more flicker on the vignetted test), and the last key on its
+    // own frame too (1.6-1.78x the input's frame-to-frame change there,
+    // against 1.4-1.6x). Simplification: a jittered or rate-warped block
     // is continued across its seam with that frame's gradients, not its
     // own warped time's; these differ only slightly, and the brightness
     // steps are what the blend removes.
