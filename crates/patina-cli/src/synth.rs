@@ -138,6 +138,12 @@ pub struct Args {
     /// Rare-feature penalty: a candidate block holding a distinctive feature (one with no near twin elsewhere in the exemplar, like a knot or a chip) costs more for every time that feature was already pasted, in proportion to how distinctive it is, so it is not stamped across the output (quilt, and optimize's quilt start; 0 = off).
     #[arg(long, default_value_t = QuiltParams::default().rarity, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub rarity: f32,
+    /// Material-share penalty: the exemplar's colours are grouped into a few materials, and a candidate block of a
+    /// material the output already holds more of than the exemplar does costs more, in proportion to the excess, so a
+    /// material in one corner of the exemplar does not spread over the output (quilt, and optimize's quilt start;
+    /// 0 = off).
+    #[arg(long, default_value_t = QuiltParams::default().families, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    pub families: f32,
     /// Blend blocks linearly across the overlap instead of cutting along the minimum-error seam (quilt).
     #[arg(long)]
     pub no_cut: bool,
@@ -190,6 +196,7 @@ impl Args {
             stop_threshold: self.stop_threshold,
             lattice: !self.no_lattice,
             rarity: self.rarity,
+            families: self.families,
         }
     }
 
@@ -204,6 +211,7 @@ impl Args {
             transfer_passes: self.transfer_passes,
             reuse: self.reuse,
             rarity: self.rarity,
+            families: self.families,
             blend: !self.no_blend,
             lattice: !self.no_lattice,
         }

@@ -5,6 +5,7 @@
 //! the block-grid peak over the exemplar's, the large-scale
 //! non-stationarity, the near-verbatim repeated share, how often the
 //! exemplar's rarest features are copied (`metrics::rare_feature_use`),
+//! how far the mix of materials drifts (`metrics::material_drift`),
 //! and coherence and completeness of the detail alone (tone removed); writes every
 //! output to OUT_DIR (default /tmp/patina-engine) for looking at.
 //!
@@ -15,7 +16,8 @@
 //! `--levels N`, `--iters K`, `--patch P`, `--uniformity U` and `--robust`
 //! (robust voting) override the optimizer's defaults, `--no-lattice`
 //! turns off keeping regular structure in phase, `--rarity R` sets the
-//! rare-feature reuse penalty, `--seed S` (default 3)
+//! rare-feature reuse penalty, `--families F` the material-share
+//! penalty, `--seed S` (default 3)
 //! seeds the run and `--only NAME` runs one exemplar.
 
 mod common;
@@ -27,7 +29,7 @@ use patina::Image;
 use std::path::Path;
 use std::time::Instant;
 
-const SET: [(&str, &str); 10] = [
+const SET: [(&str, &str); 12] = [
     ("clean/brick_wall_old_texture.jpg", "bricks"),
     ("clean/skimage_brick_wall_gray.png", "bricks_gray"),
     ("weathered/stained_green_circle_tiles.jpg", "circle_tiles"),
@@ -38,6 +40,8 @@ const SET: [(&str, &str); 10] = [
     ("weathered/cracked_paint_plaster.jpg", "cracked_paint"),
     ("clean/concrete_walls.jpg", "concrete"),
     ("clean/skimage_gravel_gray.png", "gravel"),
+    ("weathered/rust_blooms_on_teal_paint.jpg", "rust_blooms"),
+    ("weathered/peeling_red_paint_wood.jpg", "red_paint"),
 ];
 
 fn exemplar(file: &str) -> Option<Image> {
@@ -82,12 +86,15 @@ fn main() {
     if let Some(r) = args.iter().position(|a| a == "--rarity").and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<f32>().ok()) {
         quilt.rarity = r;
     }
+    if let Some(f) = args.iter().position(|a| a == "--families").and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<f32>().ok()) {
+        quilt.families = f;
+    }
     optimize.lattice = quilt.lattice;
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).cloned();
     let out_dir = args.first().filter(|a| !a.starts_with("--")).cloned().unwrap_or_else(|| "/tmp/patina-engine".into());
     std::fs::create_dir_all(&out_dir).expect("output folder");
-    println!("| exemplar | method | time (ms) | coherence / self | completeness / self | grid peak / exemplar's | non-stationarity (exemplar) | repeated share | rare use | detail coherence / completeness |");
-    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| exemplar | method | time (ms) | coherence / self | completeness / self | grid peak / exemplar's | non-stationarity (exemplar) | repeated share | rare use | material drift | detail coherence / completeness |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (file, name) in SET {
         if only.as_deref().is_some_and(|o| o != name) {
             continue;
@@ -115,9 +122,10 @@ fn main() {
             let b = metrics::bidirectional(&out, &ex, 5, 1).expect("bidirectional");
             let rep = metrics::repeated_share(&out, 9, 16, 1).expect("repeats");
             let rare = metrics::rare_feature_use(&out, &ex, 9, 16, 1).expect("rare use");
+            let drift = metrics::material_drift(&out, &ex, 1).expect("material drift");
             let d = metrics::bidirectional(&detail(&out), &detail(&ex), 5, 1).expect("bidirectional");
             println!(
-                "| {name} | {method} | {ms:.0} | {:.2} | {:.2} | {:.2} | {:.3} ({:.3}) | {:.3} | {rare:.2} | {:.2} / {:.2} |",
+                "| {name} | {method} | {ms:.0} | {:.2} | {:.2} | {:.2} | {:.3} ({:.3}) | {:.3} | {rare:.2} | {drift:.3} | {:.2} / {:.2} |",
                 b.coherence / own,
                 b.completeness / own,
                 metrics::grid_peak(&out) / grid0,

@@ -1,7 +1,7 @@
 //! Quality, determinism and input checks of the synthesis engine, on
 //! exemplars the tests make themselves (patina::samples).
 
-use patina::metrics::{bidirectional, seam_visibility, self_similarity};
+use patina::metrics::{bidirectional, material_drift, seam_visibility, self_similarity};
 use patina::samples;
 use patina::synth::{Lattice, OptimizeParams, QuiltParams, QuiltPlan, Synthesis};
 use patina::{Error, Image, Mask};
@@ -249,30 +249,67 @@ fn one_distinctive_feature_is_copied_less_than_its_share() {
     });
     let area = red_copies(&ex, 1.0);
     let (mut bounded, mut common, mut free_total, mut optimized_total) = (0.0, 0.0, 0.0, 0.0);
-    for seed in 0..4 {
+    const SEEDS: u64 = 8;
+    for seed in 0..SEEDS {
         let run = |p: &QuiltParams| red_copies(&Synthesis::new(&ex).size(192, 192).seed(seed).quilt(p).unwrap().image, area);
         let q = run(&QuiltParams::default());
         let c = run(&QuiltParams { rarity: 0.0, ..QuiltParams::default() });
-        let u = run(&QuiltParams { rarity: 0.0, reuse: 0.0, ..QuiltParams::default() });
+        let u = run(&QuiltParams { rarity: 0.0, reuse: 0.0, families: 0.0, ..QuiltParams::default() });
         let optimized = Synthesis::new(&ex).size(192, 192).seed(seed).optimize(&OptimizeParams::default()).unwrap().image;
         let o = red_copies(&optimized, area);
         eprintln!(
             "seed {seed}: disc copies quilt {q:.1}, optimize {o:.1}, without the rarity bound {c:.1}, without any reuse bound {u:.1}"
         );
-        assert!((0.75..=2.5).contains(&q), "seed {seed}: the quilt has {q:.1} copies of one disc");
+        assert!(q <= 3.0, "seed {seed}: the quilt has {q:.1} copies of one disc");
         bounded += q;
         optimized_total += o;
         common += c;
         free_total += u;
     }
-    // Measured over seeds 0-3: quilt 1.1-2.1 copies, optimize 1.0-3.0
-    // (its seam healing copies parts of the disc), without the rarity
-    // bound 2.9-4.0.
-    assert!(bounded <= 8.0 && optimized_total <= 10.0, "copies over 4 seeds: quilt {bounded:.1}, optimize {optimized_total:.1}");
+    // Measured over seeds 0-7: quilt 0.2-2.8 copies, mean 1.5 (stop 35's
+    // build: 1.1-2.6, mean 1.8; over seeds 0-15 a seed in 8 drops the disc
+    // to a fragment in either); optimize 0.9-3.0; without the rarity
+    // bound about 3.
+    let n = SEEDS as f32;
+    assert!((0.75..=2.0).contains(&(bounded / n)), "mean disc copies of the quilt {:.2}", bounded / n);
+    assert!(optimized_total / n <= 2.5, "mean disc copies of optimize {:.2}", optimized_total / n);
     assert!(
         bounded < common && common < free_total,
-        "copies over 4 seeds: {bounded:.1} with the bounds, {common:.1} without the rarity bound, {free_total:.1} without any"
+        "copies over {SEEDS} seeds: {bounded:.1} with the bounds, {common:.1} without the rarity bound, {free_total:.1} without any"
     );
+}
+
+#[test]
+fn a_material_in_one_corner_keeps_its_share() {
+    // Stucco with a corner of teal gravel (10% of the exemplar). Once a
+    // quilt holds a teal block, teal continues teal more cheaply than it
+    // meets the stucco (which it does only along one short edge of the
+    // exemplar), so without a bound the corner spreads. The material-share
+    // bound (with the reuse bound, whose candidates it widens) keeps the
+    // output's mix near the exemplar's.
+    let (stucco, gravel) = (samples::stucco(96, 96, 4), samples::gravel(96, 96, 5));
+    let ex = Image::from_fn(96, 96, 3, |x, y, p| {
+        if x + y > 150 {
+            let g = gravel.pixel(x, y);
+            p.copy_from_slice(&[0.2 + 0.4 * g[0], 0.45 + 0.4 * g[1], 0.45 + 0.4 * g[2]]);
+        } else {
+            p.copy_from_slice(stucco.pixel(x, y));
+        }
+    });
+    let teal = |img: &Image| img.data().chunks_exact(3).filter(|p| p[1] > p[0] + 0.1).count() as f32 / (img.width() * img.height()) as f32;
+    let share = teal(&ex);
+    let (mut bounded, mut free, mut drift) = (0.0, 0.0, 0.0);
+    for seed in 0..4 {
+        let run = |p: &QuiltParams| Synthesis::new(&ex).size(192, 192).seed(seed).quilt(p).unwrap().image;
+        let (b, f) = (run(&QuiltParams::default()), run(&QuiltParams { families: 0.0, reuse: 0.0, rarity: 0.0, ..QuiltParams::default() }));
+        eprintln!("seed {seed}: teal share {:.3} with the bounds, {:.3} without; exemplar {share:.3}", teal(&b), teal(&f));
+        bounded += (teal(&b) - share).abs();
+        free += (teal(&f) - share).abs();
+        drift += material_drift(&b, &ex, 1).unwrap() - material_drift(&f, &ex, 1).unwrap();
+    }
+    // Measured: off by 0.22 with the bounds, 0.47 without.
+    assert!(bounded < 0.6 * free, "teal share off the exemplar's by {bounded:.3} over 4 seeds with the bounds, {free:.3} without");
+    assert!(drift < 0.0, "the material drift measure does not see it: {drift:.3} more with the bounds over 4 seeds");
 }
 
 /// `img` shifted by half its size with wrap-around, so that its tile edges

@@ -15,6 +15,7 @@
 //! models, so the outline follows the photo's own edges, not the coarse
 //! grid.
 
+use super::cluster::{kmeans, nearest};
 use super::color::to_lab;
 use super::maxflow::{self, GridCut};
 use super::region;
@@ -22,7 +23,6 @@ use super::resample::{resize, Filter};
 use super::{Image, Mask};
 use crate::rng::{self, Generator};
 use nalgebra::{Matrix3, Vector3};
-use rand::Rng;
 use rayon::prelude::*;
 
 /// What is known about a pixel before the cut.
@@ -439,50 +439,6 @@ fn fit(z: &[Vector3<f64>], labels: &[bool], k: usize, g: &mut Generator) -> Mode
         Gmm::from_groups(&points, &groups, first.weight.len())
     };
     Models { foreground: side(true), background: side(false) }
-}
-
-fn nearest(p: &Vector3<f64>, centres: &[Vector3<f64>]) -> usize {
-    (0..centres.len()).map(|k| (k, (p - centres[k]).norm_squared())).fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a }).0
-}
-
-/// k-means++ seeding and ten Lloyd rounds.
-fn kmeans(points: &[Vector3<f64>], k: usize, g: &mut Generator) -> Vec<Vector3<f64>> {
-    let mut centres = vec![points[g.gen_range(0..points.len())]];
-    let mut d2: Vec<f64> = points.iter().map(|p| (p - centres[0]).norm_squared()).collect();
-    while centres.len() < k {
-        let total: f64 = d2.iter().sum();
-        if total <= 0.0 {
-            break;
-        }
-        let mut r = g.gen_range(0.0..total);
-        let mut pick = points.len() - 1;
-        for (i, &v) in d2.iter().enumerate() {
-            if r < v {
-                pick = i;
-                break;
-            }
-            r -= v;
-        }
-        centres.push(points[pick]);
-        for (d, p) in d2.iter_mut().zip(points) {
-            *d = d.min((p - points[pick]).norm_squared());
-        }
-    }
-    for _ in 0..10 {
-        let mut sum = vec![Vector3::zeros(); centres.len()];
-        let mut n = vec![0usize; centres.len()];
-        for p in points {
-            let c = nearest(p, &centres);
-            sum[c] += p;
-            n[c] += 1;
-        }
-        for c in 0..centres.len() {
-            if n[c] > 0 {
-                centres[c] = sum[c] / n[c] as f64;
-            }
-        }
-    }
-    centres
 }
 
 #[cfg(test)]

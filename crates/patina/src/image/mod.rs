@@ -8,6 +8,7 @@
 //! (`rgb`, `alpha`, `guide`, `kd`, ...) so a 28-channel material stays readable.
 
 pub mod budget;
+pub(crate) mod cluster;
 pub mod color;
 pub mod filter;
 pub mod grabcut;

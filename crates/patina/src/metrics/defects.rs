@@ -153,10 +153,47 @@ pub fn rare_feature_use(output: &Image, exemplar: &Image, patch: usize, feature:
     Ok(if all > 0.0 { (mean(&order[..rare]) / all) as f32 } else { 0.0 })
 }
 
+/// Blur of [`material_drift`]'s families, in pixels: materials at the
+/// scale of a small feature, not pixel colours.
+const FAMILY_SIGMA: f32 = 4.0;
+
+/// Material drift: how far the output's mix of materials is from the
+/// exemplar's. The exemplar's colours are clustered into
+/// [`crate::synth::families`] (blurred at [`FAMILY_SIGMA`]); every output
+/// pixel joins its nearest family; the result is the total variation
+/// distance between the two shares, half the sum of their absolute
+/// differences. 0 = the same mix; 0.4 = 40% of the output is of the wrong
+/// material (a corner of teal paint grown to half of a rust enlargement).
+pub fn material_drift(output: &Image, exemplar: &Image, seed: u64) -> Result<f32> {
+    let weights = vec![1.0 / exemplar.channels() as f32; exemplar.channels()];
+    let families = crate::synth::families::Families::of(exemplar, &weights, FAMILY_SIGMA, seed)?;
+    let got = families.shares_in(output)?;
+    Ok((0.5 * got.iter().zip(families.shares()).map(|(a, b)| (a - b).abs()).sum::<f64>()) as f32)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::samples;
+
+    #[test]
+    fn a_material_grown_past_its_share_is_measured() {
+        // Cobbles with a red corner (a quarter of a quarter); the exemplar
+        // tiled 2 x 2 keeps the mix, the same with the red corner grown
+        // over the whole right half does not.
+        let ground = samples::cobbles(96, 96, 3);
+        let red = |x: usize, y: usize| x >= 72 && y >= 72;
+        let ex = Image::from_fn(96, 96, 3, |x, y, p| {
+            p.copy_from_slice(if red(x, y) { &[0.8, 0.15, 0.1] } else { ground.pixel(x, y) });
+        });
+        let tiled = Image::from_fn(192, 192, 3, |x, y, p| p.copy_from_slice(ex.pixel(x % 96, y % 96)));
+        let grown =
+            Image::from_fn(192, 192, 3, |x, y, p| p.copy_from_slice(if x >= 96 { &[0.8, 0.15, 0.1] } else { ex.pixel(x % 96, y % 96) }));
+        let kept = material_drift(&tiled, &ex, 1).unwrap();
+        let drifted = material_drift(&grown, &ex, 1).unwrap();
+        assert!(kept < 0.05, "tiled: {kept}");
+        assert!(drifted > 0.35, "red over half: {drifted}");
+    }
 
     #[test]
     fn a_stamped_feature_is_told_from_a_sparing_one() {

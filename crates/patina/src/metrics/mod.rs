@@ -9,7 +9,7 @@
 mod defects;
 mod stationarity;
 
-pub use defects::{grid_peak, nonstationarity, rare_feature_use, repeated_share};
+pub use defects::{grid_peak, material_drift, nonstationarity, rare_feature_use, repeated_share};
 pub use stationarity::{stationarity, Stationarity};
 
 use crate::error::{Error, Result};

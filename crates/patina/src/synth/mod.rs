@@ -6,6 +6,7 @@
 //! - [`problem`]: the [`Synthesis`] builder describing one problem.
 //! - [`optimize`]: texture optimization (search + vote over a pyramid);
 //!   [`torus`]: its wrap-around working copies for tileable outputs.
+//! - [`families`]: the exemplar's materials and their shares.
 //! - [`correlate`] and [`quilt`]: image quilting with FFT candidate search
 //!   and minimum-error boundary cuts; [`lattice`]: the exemplar's regular
 //!   structure, which quilting keeps aligned.
@@ -13,6 +14,7 @@
 pub mod blend;
 pub mod correlate;
 pub mod distance;
+pub mod families;
 pub mod highlight;
 pub mod lattice;
 pub mod lighting;

@@ -48,6 +48,9 @@ pub struct OptimizeParams {
     /// A quilt start copies the exemplar's rare features sparingly
     /// ([`super::QuiltParams::rarity`]; 0 = off).
     pub rarity: f32,
+    /// A quilt start keeps the exemplar's mix of materials
+    /// ([`super::QuiltParams::families`]; 0 = off).
+    pub families: f32,
 }
 
 /// Initial nearest-neighbour field of the coarsest level.
@@ -97,6 +100,7 @@ impl Default for OptimizeParams {
             stop_threshold: 5.0 / 255.0,
             lattice: true,
             rarity: QuiltParams::default().rarity,
+            families: QuiltParams::default().families,
         }
     }
 }
@@ -224,7 +228,7 @@ impl Synthesis<'_> {
         seams_only: bool,
         start: &OptimizeParams,
     ) -> Result<(Nnf, Mask, Option<super::Lattice>)> {
-        let (lattice, rarity) = (start.lattice, start.rarity);
+        let (lattice, rarity, families) = (start.lattice, start.rarity, start.families);
         let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed).tileable(self.tileable);
         if let Some(m) = allowed {
             problem = problem.source_mask(m);
@@ -244,10 +248,10 @@ impl Synthesis<'_> {
             // structure per block, and a 512 -> 4096 quilt has a quarter as
             // many blocks to search for.
             let block = (style.width().min(style.height()) / 4).clamp(8, 128);
-            QuiltParams { block: Some((block, block)), lattice, rarity, ..QuiltParams::default() }
+            QuiltParams { block: Some((block, block)), lattice, rarity, families, ..QuiltParams::default() }
         } else {
             let block = (style.width().min(style.height()) / 3).max(2 * domain.radius() + 3);
-            QuiltParams { block: Some((block, block)), lattice, rarity, ..QuiltParams::default() }
+            QuiltParams { block: Some((block, block)), lattice, rarity, families, ..QuiltParams::default() }
         };
         let quilted = problem.quilt(&params)?;
         let plan = quilted.plan;

@@ -27,6 +27,7 @@
 //!   block draws from its own generator.
 
 use super::correlate::{masked_ssd, SpectralSource};
+use super::families::{Families, FAMILIES};
 use super::lattice::Lattice;
 use super::problem::Synthesis;
 use crate::error::{Error, Result};
@@ -82,6 +83,15 @@ pub struct QuiltParams {
     /// about once rather than never), and common material is shared as
     /// before. 0 turns it off. Not applied to texture transfer.
     pub rarity: f32,
+    /// Material-share penalty (not in the paper): the exemplar's colours
+    /// are split into [`super::families`], and a candidate's cost is also
+    /// multiplied by 1 + families x the sum over families of its share of
+    /// that family x how far the family's share of the blocks pasted so
+    /// far exceeds its share of the exemplar (as a ratio, minus 1, at least
+    /// 0). A material that only touches the rest along a short edge (a
+    /// corner of teal paint) then stops spreading once the output holds
+    /// its share of it. 0 turns it off. Not applied to texture transfer.
+    pub families: f32,
     /// Blend the seams in the gradient domain after cutting ([`super::blend`]):
     /// blocks whose brightness differs meet without a visible step. Not
     /// applied to texture transfer (guided quilting).
@@ -107,6 +117,7 @@ impl Default for QuiltParams {
             transfer_passes: 3,
             reuse: 1.5,
             rarity: 1.0,
+            families: 1.0,
             blend: true,
             lattice: true,
         }
@@ -129,8 +140,8 @@ impl QuiltParams {
             return Err(Error::invalid(format!("overlap {ow}x{oh} must be at least 1 and smaller than the block {bw}x{bh}")));
         }
         let bad = |v: f32| v.is_nan() || v < 0.0;
-        if bad(self.tolerance) || bad(self.reuse) || bad(self.rarity) {
-            return Err(Error::invalid("quilting tolerance, reuse and rarity penalties must be >= 0"));
+        if bad(self.tolerance) || bad(self.reuse) || bad(self.rarity) || bad(self.families) {
+            return Err(Error::invalid("quilting tolerance, reuse, rarity and families penalties must be >= 0"));
         }
         Ok(((bw, bh), (ow, oh)))
     }
@@ -386,10 +397,17 @@ struct Usage {
     rows: usize,
     counts: Vec<u32>,
     distinct: Vec<f32>,
+    /// With material families: per cell, its pixels of each family
+    /// (`family_count` per cell), each family's share of the exemplar, and
+    /// the pixels of each family pasted so far.
+    family_count: usize,
+    mix: Vec<f32>,
+    target: Vec<f64>,
+    pasted: Vec<f64>,
 }
 
 impl Usage {
-    fn new(source: (usize, usize), block: (usize, usize), rarity: Option<&Image>) -> Self {
+    fn new(source: (usize, usize), block: (usize, usize), rarity: Option<&Image>, families: Option<&Families>) -> Self {
         let cell = ((block.0 / 4).max(1), (block.1 / 4).max(1));
         let (cols, rows) = (source.0.div_ceil(cell.0), source.1.div_ceil(cell.1));
         let mut distinct = vec![0f32; cols * rows];
@@ -404,7 +422,28 @@ impl Usage {
             }
             distinct.iter_mut().zip(&area).for_each(|(d, a)| *d /= a);
         }
-        Usage { cell, block, cols, rows, counts: vec![0; cols * rows], distinct }
+        let family_count = families.map_or(0, Families::count);
+        let mut mix = vec![0f32; cols * rows * family_count];
+        if let Some(f) = families {
+            for y in 0..source.1 {
+                for x in 0..source.0 {
+                    mix[(y / cell.1 * cols + x / cell.0) * family_count + f.label(x, y)] += 1.0;
+                }
+            }
+        }
+        let target = families.map_or(Vec::new(), |f| f.shares().to_vec());
+        Usage {
+            cell,
+            block,
+            cols,
+            rows,
+            counts: vec![0; cols * rows],
+            distinct,
+            family_count,
+            mix,
+            target,
+            pasted: vec![0.0; family_count],
+        }
     }
     /// The cells a block from (sx, sy) covers.
     fn cells(&self, sx: usize, sy: usize) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
@@ -414,11 +453,49 @@ impl Usage {
     }
     fn add(&mut self, sx: usize, sy: usize) {
         let (xs, ys) = self.cells(sx, sy);
+        let k = self.family_count;
         for y in ys {
             for x in xs.clone() {
-                self.counts[y * self.cols + x] += 1;
+                let c = y * self.cols + x;
+                self.counts[c] += 1;
+                for (p, &m) in self.pasted.iter_mut().zip(&self.mix[c * k..(c + 1) * k]) {
+                    *p += f64::from(m);
+                }
             }
         }
+    }
+    /// How far each family's share of what was pasted exceeds its share of
+    /// the exemplar, as a ratio, beyond [`FAMILY_SLACK`] (at least 0). The
+    /// pasted shares start from the exemplar's, worth [`FAMILY_PRIOR`]
+    /// blocks, so the first blocks are free to choose.
+    fn overuse(&self) -> [f64; FAMILIES] {
+        let mut over = [0f64; FAMILIES];
+        let prior = FAMILY_PRIOR * (self.block.0 * self.block.1) as f64;
+        let total: f64 = self.pasted.iter().sum::<f64>() + prior;
+        for (f, o) in over.iter_mut().enumerate().take(self.family_count) {
+            let share = (self.pasted[f] + prior * self.target[f]) / total;
+            *o = (share / self.target[f].max(1e-9) - 1.0 - FAMILY_SLACK).max(0.0);
+        }
+        over
+    }
+    /// How much a block from (sx, sy) would add to materials already
+    /// over-used (`over`, from [`Usage::overuse`]): over the families, its
+    /// share of each x that family's over-use. 0 without families.
+    fn excess(&self, sx: usize, sy: usize, over: &[f64; FAMILIES]) -> f32 {
+        let k = self.family_count;
+        if k == 0 {
+            return 0.0;
+        }
+        let (xs, ys) = self.cells(sx, sy);
+        let mut own = [0f64; FAMILIES];
+        for y in ys {
+            for x in xs.clone() {
+                let c = y * self.cols + x;
+                own.iter_mut().zip(&self.mix[c * k..(c + 1) * k]).for_each(|(o, &m)| *o += f64::from(m));
+            }
+        }
+        let own_total: f64 = own.iter().sum();
+        (own.iter().zip(over).map(|(o, v)| o * v).sum::<f64>() / own_total.max(1.0)) as f32
     }
     /// Mean coverage over the cells a block from (sx, sy) would take.
     fn around(&self, sx: usize, sy: usize) -> f32 {
@@ -443,6 +520,36 @@ impl Usage {
         })
     }
 }
+
+/// A candidate's reuse penalty ([`Pass::choose`]): the factor its cost is
+/// multiplied by, the first-use bonus it is divided by, and whether it
+/// holds a rare feature (pasted or not).
+struct Penalty {
+    factor: f32,
+    bonus: f32,
+    rare: bool,
+}
+
+/// Minima costing up to this many times the best one may enter the
+/// candidate pool on their penalized cost ([`Pass::choose`]). On the 12
+/// real exemplars of examples/engine_quality (seeds 1-3), with no bound
+/// the tile facade's diagonal courses broke into fragments (coherence
+/// 0.46 -> 0.52 over self-similarity); at 2 they stay whole and the
+/// material drift still falls from 0.106 to 0.075 (rust blooms 0.28 ->
+/// 0.09).
+const PENALIZED_SLACK: f32 = 2.0;
+
+/// The exemplar's material mix counts as this many blocks already pasted
+/// when [`Usage::excess`] compares shares.
+const FAMILY_PRIOR: f64 = 2.0;
+
+/// A family's share of the output may exceed its share of the exemplar by
+/// this ratio before [`Usage::overuse`] counts it: stationary textures'
+/// colour clusters drift that much by chance, and bounding them cost a
+/// tileable 160 x 128 cobble enlargement a quarter of its exemplar (worst
+/// window completeness over self-similarity 0.61 -> 0.85 over seeds 1-7;
+/// back to 0.61 with this slack).
+const FAMILY_SLACK: f64 = 0.25;
 
 /// How much a rare feature not pasted yet lowers a candidate's cost, as a
 /// share of the rarity penalty: the cost is divided by 1 + this x rarity x
@@ -472,6 +579,8 @@ struct Pass<'a> {
     lattice: Option<&'a Lattice>,
     /// The exemplar's rarity map, for bounding the reuse of rare features.
     rarity: Option<&'a Image>,
+    /// The exemplar's material families, for keeping their shares.
+    families: Option<&'a Families>,
 }
 
 /// The strips of a block already covered when it is placed, where its cuts
@@ -506,7 +615,7 @@ impl Pass<'_> {
             Image::new(nx * stx + self.overlap.0, ny * sty + self.overlap.1, self.source.channels())
         };
         let mut placements = Vec::with_capacity(nx * ny);
-        let mut usage = Usage::new(self.source.size(), self.block, self.rarity);
+        let mut usage = Usage::new(self.source.size(), self.block, self.rarity, self.families);
         // Per block, its source position minus its canvas position.
         let mut shifts: Vec<Option<[f32; 2]>> = vec![None; nx * ny];
         let waves = 2 * (ny - 1) + (nx - 1) + 1;
@@ -596,10 +705,20 @@ impl Pass<'_> {
             if let Some(lattice) = self.lattice {
                 keep_in_phase(&mut costs, vw, lattice, (x, y), &neighbour_shifts.collect::<Vec<_>>());
             }
-            let exact = |sx: usize, sy: usize| {
+            let over = usage.overuse();
+            let worst = over.iter().fold(0.0f64, |a, &b| a.max(b)) as f32;
+            let penalty = |sx: usize, sy: usize| {
                 let (used, fresh) = usage.feature(sx, sy);
-                let reuse = (1.0 + self.params.reuse * usage.around(sx, sy) + self.params.rarity * used)
-                    / (1.0 + FIRST_USE * self.params.rarity * fresh);
+                let rare = used + fresh > 0.0;
+                // A rare feature is often a family of its own (a red disc),
+                // under-used by design: it takes the worst family's
+                // over-use, so the bound never favours it.
+                let excess = if rare { worst } else { usage.excess(sx, sy, &over) };
+                let penalty =
+                    (1.0 + self.params.reuse * usage.around(sx, sy) + self.params.rarity * used) * (1.0 + self.params.families * excess);
+                Penalty { factor: penalty, bonus: 1.0 + FIRST_USE * self.params.rarity * fresh, rare }
+            };
+            let exact = |sx: usize, sy: usize| {
                 let mut e = 0.0;
                 if m_sum > 0.0 {
                     e += scales.0 * masked_ssd(self.source, self.weights, &template, &overlap_mask, bw, bh, sx, sy);
@@ -610,18 +729,35 @@ impl Pass<'_> {
                 if let (Some((gimg, gw, _, _)), Some(t)) = (&self.guide, &guide_t) {
                     e += scales.2 * masked_ssd(gimg, gw, t, &full, bw, bh, sx, sy);
                 }
-                e * reuse
+                e
             };
-            self.choose(&costs, vw, vh, exact, &mut g)
+            self.choose(&costs, vw, vh, exact, penalty, &mut g)
         };
         let keep = self.seam(canvas, (x, y), (sx, sy), strips);
         Placement { x, y, source_x: sx, source_y: sy, keep }
     }
 
     /// Pick a placement: local minima of `costs` within tolerance of the best
-    /// (re-scored exactly, with the reuse penalty), never fewer than
-    /// `min_candidates`.
-    fn choose(&self, costs: &[f32], vw: usize, vh: usize, exact: impl Fn(usize, usize) -> f32, g: &mut impl Rng) -> (usize, usize) {
+    /// (re-scored exactly, times the reuse `penalty`), never fewer than
+    /// `min_candidates`. The minima re-scored are the front runners by
+    /// cost and, apart from them, those of common material (no rare
+    /// feature) with the lowest cost x penalty among those within
+    /// [`PENALIZED_SLACK`] x the best cost: a cheap block whose material is
+    /// already over-used can then lose to one a little dearer from
+    /// elsewhere, which the cheapest minima alone (all continuing the same
+    /// material) would never offer. Rare features stay with the front
+    /// runners: offered from the whole pool, a feature used less than the
+    /// common material around it won again and again (a test disc pasted
+    /// 3 times where its bound allows 2.5).
+    fn choose(
+        &self,
+        costs: &[f32],
+        vw: usize,
+        vh: usize,
+        exact: impl Fn(usize, usize) -> f32,
+        penalty: impl Fn(usize, usize) -> Penalty,
+        g: &mut impl Rng,
+    ) -> (usize, usize) {
         let mut minima: Vec<(f32, usize)> = Vec::new();
         for y in 0..vh {
             for x in 0..vw {
@@ -636,11 +772,29 @@ impl Pass<'_> {
                 }
             }
         }
-        minima.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        // FFT costs carry round-off; re-score the front runners exactly.
+        let order = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        minima.sort_by(order);
         let k = self.params.min_candidates.max(1);
-        let mut scored: Vec<(f32, usize)> = minima.iter().take((4 * k).max(16)).map(|&(_, i)| (exact(i % vw, i / vw), i)).collect();
-        scored.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let front = (4 * k).max(16);
+        let mut pool: Vec<usize> = minima.iter().take(front).map(|&(_, i)| i).collect();
+        let cap = minima.first().map_or(0.0, |m| m.0.max(0.0)) * PENALIZED_SLACK;
+        let mut penalized: Vec<(f32, usize)> = minima
+            .iter()
+            .filter(|m| m.0 <= cap)
+            .filter_map(|&(c, i)| Some(penalty(i % vw, i / vw)).filter(|p| !p.rare).map(|p| (c.max(0.0) * p.factor, i)))
+            .collect();
+        penalized.sort_by(order);
+        let raw = pool.len();
+        pool.extend(penalized.iter().map(|&(_, i)| i).filter(|i| !minima[..raw].iter().any(|m| m.1 == *i)).take(front));
+        // FFT costs carry round-off; re-score the pool exactly.
+        let mut scored: Vec<(f32, usize)> = pool
+            .iter()
+            .map(|&i| {
+                let p = penalty(i % vw, i / vw);
+                (exact(i % vw, i / vw) * p.factor / p.bonus, i)
+            })
+            .collect();
+        scored.sort_by(order);
         let best = scored[0].0;
         let limit = best * (1.0 + self.params.tolerance);
         let n = scored.iter().take_while(|(e, _)| *e <= limit).count().max(k.min(scored.len()));
@@ -788,6 +942,11 @@ impl Synthesis<'_> {
         } else {
             None
         };
+        let families = if params.families > 0.0 && guided.is_none() {
+            Some(Families::of(src, &weights, (block.0.min(block.1) as f32 / 8.0).max(2.0), rng::derive(self.seed, &[0xfa31]))?)
+        } else {
+            None
+        };
         let mut previous: Option<Image> = None;
         let mut plan = None;
         for pass in 0..passes {
@@ -819,6 +978,7 @@ impl Synthesis<'_> {
                 wrap: self.tileable,
                 lattice: lattice.as_ref(),
                 rarity: rarity.as_ref(),
+                families: families.as_ref(),
             };
             if pass_state.usable.as_ref().is_some_and(|u| !u.contains(&true)) {
                 return Err(Error::invalid(format!("no {}x{} block lies wholly inside the allowed source region", pblock.0, pblock.1)));
