@@ -141,7 +141,7 @@ pub struct Args {
     /// Material-share penalty: the exemplar's colours are grouped into a few materials, and a candidate block of a
     /// material the output already holds more of than the exemplar does costs more, in proportion to the excess, so a
     /// material in one corner of the exemplar does not spread over the output (quilt, and optimize's quilt start;
-    /// 0 = off).
+    /// 0 = off, the default: try 1 for such exemplars; it can break structured ones and thin out rare features).
     #[arg(long, default_value_t = QuiltParams::default().families, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub families: f32,
     /// Blend blocks linearly across the overlap instead of cutting along the minimum-error seam (quilt).

@@ -266,10 +266,10 @@ fn one_distinctive_feature_is_copied_less_than_its_share() {
         common += c;
         free_total += u;
     }
-    // Measured over seeds 0-7: quilt 0.2-2.8 copies, mean 1.5 (stop 35's
-    // build: 1.1-2.6, mean 1.8; over seeds 0-15 a seed in 8 drops the disc
-    // to a fragment in either); optimize 0.9-3.0; without the rarity
-    // bound about 3.
+    // Measured over seeds 0-7: quilt 1.1-2.6 copies, mean 1.8 (with the
+    // material-share bound on: 0.2-2.8, mean 1.5; over seeds 0-15 a seed
+    // in 8 drops the disc to a fragment in either); optimize 0.9-3.0;
+    // without the rarity bound about 3.
     let n = SEEDS as f32;
     assert!((0.75..=2.0).contains(&(bounded / n)), "mean disc copies of the quilt {:.2}", bounded / n);
     assert!(optimized_total / n <= 2.5, "mean disc copies of optimize {:.2}", optimized_total / n);
@@ -280,13 +280,16 @@ fn one_distinctive_feature_is_copied_less_than_its_share() {
 }
 
 #[test]
-fn a_material_in_one_corner_keeps_its_share() {
-    // Stucco with a corner of teal gravel (10% of the exemplar). Once a
+fn a_material_in_one_corner_does_not_spread_under_the_material_bound() {
+    // Stucco with a corner of teal gravel (9% of the exemplar). Once a
     // quilt holds a teal block, teal continues teal more cheaply than it
     // meets the stucco (which it does only along one short edge of the
-    // exemplar), so without a bound the corner spreads. The material-share
-    // bound (with the reuse bound, whose candidates it widens) keeps the
-    // output's mix near the exemplar's.
+    // exemplar), so with no bound the corner spreads: measured, teal
+    // covers 0.11-0.33. The material-share bound (`families`, off by
+    // default) alone stops it, and overshoots: 0.02-0.11. (Here the reuse
+    // bound alone also keeps teal at 0.02-0.07, and both together at
+    // 0.035-0.038; on the real rust blooms exemplar the reuse bound does
+    // not, see QuiltParams::families.)
     let (stucco, gravel) = (samples::stucco(96, 96, 4), samples::gravel(96, 96, 5));
     let ex = Image::from_fn(96, 96, 3, |x, y, p| {
         if x + y > 150 {
@@ -301,15 +304,17 @@ fn a_material_in_one_corner_keeps_its_share() {
     let (mut bounded, mut free, mut drift) = (0.0, 0.0, 0.0);
     for seed in 0..4 {
         let run = |p: &QuiltParams| Synthesis::new(&ex).size(192, 192).seed(seed).quilt(p).unwrap().image;
-        let (b, f) = (run(&QuiltParams::default()), run(&QuiltParams { families: 0.0, reuse: 0.0, rarity: 0.0, ..QuiltParams::default() }));
-        eprintln!("seed {seed}: teal share {:.3} with the bounds, {:.3} without; exemplar {share:.3}", teal(&b), teal(&f));
+        let b = run(&QuiltParams { families: 1.0, reuse: 0.0, rarity: 0.0, ..QuiltParams::default() });
+        let f = run(&QuiltParams { reuse: 0.0, rarity: 0.0, families: 0.0, ..QuiltParams::default() });
+        eprintln!("seed {seed}: teal share {:.3} with the bound, {:.3} with none; exemplar {share:.3}", teal(&b), teal(&f));
+        assert!(teal(&b) < 1.5 * share, "seed {seed}: teal covers {:.3} with the bound; the exemplar {share:.3}", teal(&b));
         bounded += (teal(&b) - share).abs();
         free += (teal(&f) - share).abs();
         drift += material_drift(&b, &ex, 1).unwrap() - material_drift(&f, &ex, 1).unwrap();
     }
-    // Measured: off by 0.22 with the bounds, 0.47 without.
-    assert!(bounded < 0.6 * free, "teal share off the exemplar's by {bounded:.3} over 4 seeds with the bounds, {free:.3} without");
-    assert!(drift < 0.0, "the material drift measure does not see it: {drift:.3} more with the bounds over 4 seeds");
+    // Measured: off by 0.20 with the bound, 0.47 with none.
+    assert!(bounded < 0.6 * free, "teal share off the exemplar's by {bounded:.3} over 4 seeds with the bound, {free:.3} with none");
+    assert!(drift < 0.0, "the material drift measure does not see it: {drift:.3} more with the bound over 4 seeds");
 }
 
 /// `img` shifted by half its size with wrap-around, so that its tile edges
