@@ -144,6 +144,16 @@ pub struct Args {
     /// 0 = off, the default: try 1 for such exemplars; it can break structured ones and thin out rare features).
     #[arg(long, default_value_t = QuiltParams::default().families, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub families: f32,
+    /// Relative overlap costs: a candidate block's overlap error is divided by (twin error + 0.25)^this, where the twin
+    /// error is how far the exemplar's material there is from its nearest twin elsewhere (over the median), so busy
+    /// material (peels, rust) competes fairly with plain paint instead of being left to the output's edges (quilt;
+    /// 0 = plain errors, as in the paper).
+    #[arg(long, default_value_t = QuiltParams::default().relative, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 4.0))]
+    pub relative: f32,
+    /// Lay the blocks out in rows of random height, each row with its own random spacing, so block outlines do not line
+    /// up into a grid (quilt; off by default: the paper's regular grid).
+    #[arg(long)]
+    pub stagger: bool,
     /// Blend blocks linearly across the overlap instead of cutting along the minimum-error seam (quilt).
     #[arg(long)]
     pub no_cut: bool,
@@ -214,6 +224,8 @@ impl Args {
             families: self.families,
             blend: !self.no_blend,
             lattice: !self.no_lattice,
+            stagger: self.stagger,
+            relative: self.relative,
         }
     }
 }

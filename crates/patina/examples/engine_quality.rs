@@ -17,8 +17,11 @@
 //! (robust voting) override the optimizer's defaults, `--no-lattice`
 //! turns off keeping regular structure in phase, `--rarity R` sets the
 //! rare-feature reuse penalty, `--families F` the material-share
-//! penalty, `--seed S` (default 3)
-//! seeds the run and `--only NAME` runs one exemplar.
+//! penalty, `--relative G` the overlap cost's exponent of the twin error,
+//! `--stagger` staggers the blocks instead of the paper's regular grid,
+//! `--seed S` (default 3)
+//! seeds the run, `--only NAME` runs one exemplar and `--method M`
+//! (optimize or quilt) one method.
 
 mod common;
 
@@ -89,8 +92,13 @@ fn main() {
     if let Some(f) = args.iter().position(|a| a == "--families").and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<f32>().ok()) {
         quilt.families = f;
     }
+    if let Some(r) = args.iter().position(|a| a == "--relative").and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<f32>().ok()) {
+        quilt.relative = r;
+    }
+    quilt.stagger = args.iter().any(|a| a == "--stagger");
     optimize.lattice = quilt.lattice;
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).cloned();
+    let only_method = args.iter().position(|a| a == "--method").and_then(|i| args.get(i + 1)).cloned();
     let out_dir = args.first().filter(|a| !a.starts_with("--")).cloned().unwrap_or_else(|| "/tmp/patina-engine".into());
     std::fs::create_dir_all(&out_dir).expect("output folder");
     println!("| exemplar | method | time (ms) | coherence / self | completeness / self | grid peak / exemplar's | non-stationarity (exemplar) | repeated share | rare use | material drift | detail coherence / completeness |");
@@ -111,6 +119,9 @@ fn main() {
             .unwrap();
         let size = 2 * ex.width();
         for method in ["optimize", "quilt"] {
+            if only_method.as_deref().is_some_and(|m| m != method) {
+                continue;
+            }
             let t = Instant::now();
             let relight = if args.iter().any(|a| a == "--flat") { patina::synth::Relight::Flat } else { patina::synth::Relight::Keep };
             let problem = Synthesis::new(&ex).size(size, size).seed(seed).relight(relight);

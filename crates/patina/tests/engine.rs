@@ -68,17 +68,13 @@ fn the_completeness_check_catches_an_output_that_ignores_half_the_exemplar() {
 
 /// Fraction of horizontally adjacent blocks (in the first row, where a
 /// block's only constraint is its left neighbour) that continue their left
-/// neighbour verbatim in the exemplar.
+/// neighbour verbatim in the exemplar (same shift from canvas to source).
 fn continuation_fraction(plan: &QuiltPlan) -> f32 {
-    let step = plan.block.0 - plan.overlap.0;
-    let (mut pairs, mut cont) = (0, 0);
-    for a in plan.placements.iter().filter(|p| p.y == 0) {
-        if let Some(b) = plan.placements.iter().find(|b| b.y == a.y && b.x == a.x + step) {
-            pairs += 1;
-            cont += (b.source_x == a.source_x + step && b.source_y == a.source_y) as usize;
-        }
-    }
-    cont as f32 / pairs as f32
+    let mut row: Vec<_> = plan.placements.iter().filter(|p| p.y == 0).collect();
+    row.sort_by_key(|p| p.x);
+    let shift = |p: &patina::synth::Placement| (p.source_x as isize - p.x as isize, p.source_y as isize);
+    let cont = row.windows(2).filter(|ab| shift(ab[0]) == shift(ab[1])).count();
+    cont as f32 / (row.len() - 1) as f32
 }
 
 #[test]
@@ -281,15 +277,16 @@ fn one_distinctive_feature_is_copied_less_than_its_share() {
 
 #[test]
 fn a_material_in_one_corner_does_not_spread_under_the_material_bound() {
-    // Stucco with a corner of teal gravel (9% of the exemplar). Once a
-    // quilt holds a teal block, teal continues teal more cheaply than it
-    // meets the stucco (which it does only along one short edge of the
-    // exemplar), so with no bound the corner spreads: measured, teal
-    // covers 0.11-0.33. The material-share bound (`families`, off by
-    // default) alone stops it, and overshoots: 0.02-0.11. (Here the reuse
-    // bound alone also keeps teal at 0.02-0.07, and both together at
-    // 0.035-0.038; on the real rust blooms exemplar the reuse bound does
-    // not, see QuiltParams::families.)
+    // Stucco with a corner of teal gravel (9% of the exemplar). With plain
+    // overlap costs, once a quilt holds a teal block, teal continues teal
+    // more cheaply than it meets the stucco (which it does only along one
+    // short edge of the exemplar), so with no bound the corner spreads:
+    // measured, teal covers 0.11-0.33. The material-share bound
+    // (`families`, off by default) alone stops it, and overshoots:
+    // 0.02-0.11. (Here the reuse bound alone also keeps teal at 0.02-0.07;
+    // on the real rust blooms exemplar it does not, see
+    // QuiltParams::families. The default relative overlap costs, with no
+    // bound, give 0.001-0.025 here: the corner is not spread but dropped.)
     let (stucco, gravel) = (samples::stucco(96, 96, 4), samples::gravel(96, 96, 5));
     let ex = Image::from_fn(96, 96, 3, |x, y, p| {
         if x + y > 150 {
@@ -301,11 +298,12 @@ fn a_material_in_one_corner_does_not_spread_under_the_material_bound() {
     });
     let teal = |img: &Image| img.data().chunks_exact(3).filter(|p| p[1] > p[0] + 0.1).count() as f32 / (img.width() * img.height()) as f32;
     let share = teal(&ex);
+    let plain = QuiltParams { reuse: 0.0, rarity: 0.0, families: 0.0, relative: 0.0, ..QuiltParams::default() };
     let (mut bounded, mut free, mut drift) = (0.0, 0.0, 0.0);
     for seed in 0..4 {
         let run = |p: &QuiltParams| Synthesis::new(&ex).size(192, 192).seed(seed).quilt(p).unwrap().image;
-        let b = run(&QuiltParams { families: 1.0, reuse: 0.0, rarity: 0.0, ..QuiltParams::default() });
-        let f = run(&QuiltParams { reuse: 0.0, rarity: 0.0, families: 0.0, ..QuiltParams::default() });
+        let b = run(&QuiltParams { families: 1.0, ..plain.clone() });
+        let f = run(&plain);
         eprintln!("seed {seed}: teal share {:.3} with the bound, {:.3} with none; exemplar {share:.3}", teal(&b), teal(&f));
         assert!(teal(&b) < 1.5 * share, "seed {seed}: teal covers {:.3} with the bound; the exemplar {share:.3}", teal(&b));
         bounded += (teal(&b) - share).abs();
@@ -389,9 +387,11 @@ fn tileable_outputs_continue_across_their_edges() {
     let (tiled, plain) = (quilt(true), quilt(false));
     assert!(tiled.plan.wrap && !plain.plan.wrap);
     let (t, p) = (edge_step(&tiled.image), edge_step(&plain.image));
-    // Measured 1.6 and 6.9: a cut is a step (the quilt has no blend to hide
-    // it), and the plain quilt's edges are unrelated pixels.
-    assert!(t < 2.2 && p > 3.0 * t, "quilt: step across the edge over the mean step: tileable {t:.2}, plain {p:.2}");
+    // Measured 1.5 and 4.4 (6.9 with plain overlap costs, whose quilt
+    // holds more of the bricks' plain faces, so its steps inside are
+    // smaller): a cut is a step (the quilt has no blend to hide it), and
+    // the plain quilt's edges are unrelated pixels.
+    assert!(t < 2.2 && p > 2.5 * t, "quilt: step across the edge over the mean step: tileable {t:.2}, plain {p:.2}");
 }
 
 /// Share of output pixels whose source shift (source minus output

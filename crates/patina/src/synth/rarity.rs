@@ -61,6 +61,17 @@ pub fn rarity(exemplar: &Image, weights: &[f32], feature: usize, seed: u64) -> R
     Ok(out)
 }
 
+/// Per exemplar pixel, the squared distance from its 7 px neighbourhood to
+/// its nearest twin elsewhere in the exemplar, over the median of that
+/// squared distance: how large a seam error a natural match there has.
+/// Busy material (a peel's torn lip) has no close twin and a large error;
+/// plain paint has a small one.
+pub fn twin_error(exemplar: &Image, weights: &[f32], seed: u64) -> Result<Image> {
+    let mut e = rarity_at(exemplar, weights, PATCH, seed)?;
+    e.data_mut().iter_mut().for_each(|v| *v *= *v);
+    Ok(e)
+}
+
 /// Rarity on neighbourhoods about `feature` pixels wide (median 1): the
 /// exemplar is shrunk so that a [`PATCH`]-pixel patch spans that width,
 /// matched against itself with PatchMatch (matches within one patch of the
@@ -112,5 +123,23 @@ mod tests {
         let at = rare.at(40, 70, 0).max(rare.at(34, 70, 0));
         let far = rare.at(100, 20, 0);
         assert!(at > 3.0 && far < 2.0, "disc {at}, plaster {far}");
+    }
+
+    #[test]
+    fn busy_material_has_a_larger_twin_error_than_plain() {
+        // Left half gravel (busy), right half blotches at low contrast (plain).
+        let (gravel, plain) = (samples::gravel(96, 96, 2), samples::blotches(96, 96, 3));
+        let img = Image::from_fn(96, 96, 3, |x, y, p| {
+            let v = if x < 48 { gravel.pixel(x, y).to_vec() } else { plain.pixel(x, y).iter().map(|c| 0.4 + 0.2 * c).collect() };
+            p.copy_from_slice(&v);
+        });
+        let e = twin_error(&img, &[1.0 / 3.0; 3], 1).unwrap();
+        let median = |x0: usize| {
+            let mut v: Vec<f32> = (8..88).flat_map(|y| (x0..x0 + 32).map(move |x| (x, y))).map(|(x, y)| e.at(x, y, 0)).collect();
+            v.sort_by(f32::total_cmp);
+            v[v.len() / 2]
+        };
+        let (busy, calm) = (median(8), median(56));
+        assert!(busy > 4.0 * calm, "twin error: gravel {busy}, plain {calm}");
     }
 }
