@@ -621,6 +621,10 @@ pub const RELATIVE_FLOOR: f32 = 0.25;
 /// allows 2). Busy common material stays below it.
 pub const RELATIVE_CAP: f32 = super::rarity::DISTINCT_FROM * super::rarity::DISTINCT_FROM;
 
+/// At most this many distinct strip shapes get their relative-cost factors
+/// computed once per pass ([`Pass::relative_factors`]).
+const SHARED_SHAPES: usize = 16;
+
 /// How much a rare feature not pasted yet lowers a candidate's cost, as a
 /// share of the rarity penalty: the cost is divided by 1 + this x rarity x
 /// distinctiveness, so each distinctive feature tends to appear once rather
@@ -660,7 +664,7 @@ struct Pass<'a> {
 /// The strips of a block already covered when it is placed, where its cuts
 /// run: left and top (its neighbours), and, tileable, right and bottom (the
 /// first column and row, across the edges).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 struct Strips {
     left: usize,
     top: usize,
@@ -823,13 +827,25 @@ impl Pass<'_> {
         let mut usage = Usage::new(self.source.size(), self.block, self.rarity, self.families);
         // Per block, its source position minus its canvas position.
         let mut shifts: Vec<Option<[f32; 2]>> = vec![None; total];
+        // The relative-cost factors depend on a block's strips only: on the
+        // regular grid a few shapes serve every block, so they are computed
+        // once (a staggered layout has about one shape per block, and each
+        // block computes its own).
+        let mut shapes: Vec<Strips> = layout.blocks.iter().map(|b| b.strips).filter(Strips::any).collect();
+        shapes.sort();
+        shapes.dedup();
+        let factors: Vec<(Strips, Vec<f32>)> = match self.twin {
+            Some(t) if shapes.len() <= SHARED_SHAPES => shapes.par_iter().map(|&s| (s, self.relative_factors(t, s))).collect(),
+            _ => Vec::new(),
+        };
         for wave in &layout.waves {
             let planned: Vec<(usize, Placement)> = wave
                 .par_iter()
                 .map(|&k| {
                     let b = &layout.blocks[k];
                     let neighbours = [b.left, b.above].into_iter().flatten().filter_map(|n| shifts[n]);
-                    (k, self.place(&canvas, &usage, b.at, b.strips, neighbours, b.cell))
+                    let cached = factors.iter().find(|(s, _)| *s == b.strips).map(|(_, f)| f.as_slice());
+                    (k, self.place(&canvas, &usage, b.at, b.strips, neighbours, b.cell, cached))
                 })
                 .collect();
             for (k, p) in planned {
@@ -853,6 +869,7 @@ impl Pass<'_> {
         strips: Strips,
         neighbour_shifts: impl Iterator<Item = [f32; 2]>,
         cell: u64,
+        cached: Option<&[f32]>,
     ) -> Placement {
         let (bw, bh) = self.block;
         let mut g = rng::generator(self.seed, &[cell]);
@@ -887,18 +904,16 @@ impl Pass<'_> {
             }
             let mut costs = self.spectral.finish(q);
             // Overlap-only costs relative to the candidate's own twin error.
-            // The overlap is the block less its inner rectangle.
-            let relative: Option<Vec<f32>> = self.twin.filter(|_| m_sum > 0.0 && prev.is_none() && guide_t.is_none()).map(|t| {
-                let (iw, ih) = (bw - strips.left - strips.right, bh - strips.top - strips.bottom);
-                (0..vw * vh)
-                    .map(|i| {
-                        let (sx, sy) = (i % vw, i / vw);
-                        let e = (t.sum(sx, sy, bw, bh) - t.sum(sx + strips.left, sy + strips.top, iw, ih)) / f64::from(m_sum);
-                        (e.max(0.0) as f32 + RELATIVE_FLOOR).powf(-self.params.relative)
-                    })
-                    .collect()
-            });
-            if let Some(r) = &relative {
+            let computed: Vec<f32>;
+            let relative: Option<&[f32]> = match self.twin.filter(|_| m_sum > 0.0 && prev.is_none() && guide_t.is_none()) {
+                None => None,
+                Some(_) if cached.is_some() => cached,
+                Some(t) => {
+                    computed = self.relative_factors(t, strips);
+                    Some(&computed)
+                }
+            };
+            if let Some(r) = relative {
                 costs.iter_mut().zip(r).for_each(|(c, f)| *c *= f);
             }
             if let Some(u) = &self.usable {
@@ -923,7 +938,7 @@ impl Pass<'_> {
             let exact = |sx: usize, sy: usize| {
                 let mut e = 0.0;
                 if m_sum > 0.0 {
-                    let f = relative.as_ref().map_or(1.0, |r| r[sy * vw + sx]);
+                    let f = relative.map_or(1.0, |r| r[sy * vw + sx]);
                     e += f * scales.0 * masked_ssd(self.source, self.weights, &template, &overlap_mask, bw, bh, sx, sy);
                 }
                 if let Some(p) = &prev {
@@ -938,6 +953,24 @@ impl Pass<'_> {
         };
         let keep = self.seam(canvas, (x, y), (sx, sy), strips);
         Placement { x, y, source_x: sx, source_y: sy, keep }
+    }
+
+    /// Per candidate placement, the factor [`QuiltParams::relative`]
+    /// multiplies its overlap cost by: (e + [`RELATIVE_FLOOR`])^-relative,
+    /// e the mean twin error over the overlap, which is the block less its
+    /// inner rectangle. It depends on the strips' shape only.
+    fn relative_factors(&self, twin: &SummedArea, strips: Strips) -> Vec<f32> {
+        let (bw, bh) = self.block;
+        let (vw, vh) = (self.source.width() - bw + 1, self.source.height() - bh + 1);
+        let (iw, ih) = (bw - strips.left - strips.right, bh - strips.top - strips.bottom);
+        let area = (bw * bh - iw * ih) as f64;
+        (0..vw * vh)
+            .map(|i| {
+                let (sx, sy) = (i % vw, i / vw);
+                let e = (twin.sum(sx, sy, bw, bh) - twin.sum(sx + strips.left, sy + strips.top, iw, ih)) / area;
+                (e.max(0.0) as f32 + RELATIVE_FLOOR).powf(-self.params.relative)
+            })
+            .collect()
     }
 
     /// Pick a placement: local minima of `costs` within tolerance of the best
