@@ -370,6 +370,17 @@ fn grid(w: usize, h: usize, block: (usize, usize), overlap: (usize, usize), wrap
     }
 }
 
+/// The canvas a pass quilts on: the output itself when tileable, else the
+/// [`grid`]'s blocks laid edge to overlap (at least the output's size).
+fn canvas_size(w: usize, h: usize, block: (usize, usize), overlap: (usize, usize), wrap: bool) -> (usize, usize) {
+    let (nx, ny) = grid(w, h, block, overlap, wrap);
+    if wrap {
+        (w, h)
+    } else {
+        (nx * (block.0 - overlap.0) + overlap.0, ny * (block.1 - overlap.1) + overlap.1)
+    }
+}
+
 fn paste(canvas: &mut Image, source: &Image, p: &Placement, (bw, bh): (usize, usize)) {
     let n = source.channels();
     for y in 0..bh {
@@ -722,7 +733,7 @@ impl Layout {
         let (nx, ny) = grid(width, height, block, overlap, wrap);
         let (stx, sty) = (bw - overlap.0, bh - overlap.1);
         let (xs, ys) = (positions(width, nx, stx, wrap), positions(height, ny, sty, wrap));
-        let canvas = if wrap { (width, height) } else { (nx * stx + overlap.0, ny * sty + overlap.1) };
+        let canvas = canvas_size(width, height, block, overlap, wrap);
         let mut blocks = Vec::with_capacity(nx * ny);
         for i in 0..ny {
             for j in 0..nx {
@@ -757,8 +768,7 @@ impl Layout {
     /// block's top strip is all covered by the rows above it.
     fn staggered(width: usize, height: usize, block: (usize, usize), overlap: (usize, usize), seed: u64) -> Layout {
         let (bw, bh) = block;
-        let regular = Layout::regular(width, height, block, overlap, false);
-        let (cw, ch) = regular.canvas;
+        let (cw, ch) = canvas_size(width, height, block, overlap, false);
         let mut g = rng::generator(seed, &[u64::MAX, 1]);
         let steps = |side: usize, size: usize, step: usize, g: &mut rng::Generator| {
             let lo = ((step as f32 * STAGGER_MIN_STEP).round() as usize).clamp(1, step);
@@ -1199,9 +1209,7 @@ impl Synthesis<'_> {
             let shrink = (2.0f32 / 3.0).powi(pass as i32);
             let pblock = (((block.0 as f32 * shrink) as usize).max(3), ((block.1 as f32 * shrink) as usize).max(3));
             let poverlap = if pass == 0 { overlap } else { ((pblock.0 / 6).max(1), (pblock.1 / 6).max(1)) };
-            let (nx, ny) = grid(w, h, pblock, poverlap, self.tileable);
-            let canvas =
-                if self.tileable { (w, h) } else { (nx * (pblock.0 - poverlap.0) + poverlap.0, ny * (pblock.1 - poverlap.1) + poverlap.1) };
+            let canvas = canvas_size(w, h, pblock, poverlap, self.tileable);
             let alpha = if passes > 1 {
                 0.8 * pass as f32 / (passes - 1) as f32 + 0.1
             } else if guided.is_some() {
