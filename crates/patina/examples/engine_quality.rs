@@ -17,7 +17,8 @@
 //! (robust voting) override the optimizer's defaults, `--no-lattice`
 //! turns off keeping regular structure in phase, `--rarity R` sets the
 //! rare-feature reuse penalty, `--families F` the material-share
-//! penalty, `--relative G` the overlap cost's exponent of the twin error,
+//! penalty, `--relative G` the quilt's exponent of the twin error in its
+//! overlap costs,
 //! `--stagger` staggers the blocks instead of the paper's regular grid,
 //! `--seed S` (default 3)
 //! seeds the run, `--only NAME` runs one exemplar and `--method M`

@@ -21,10 +21,9 @@
 //!   compare the block with the previous pass's result. Overlap and
 //!   correspondence errors are per-pixel means so alpha balances them
 //!   whatever the block size.
-//! - Layout (not in the paper): by default the blocks are staggered, rows
-//!   of random height each with its own random spacing, so that block
-//!   outlines do not form a lattice (a regular grid shows through the
-//!   seams on real exemplars, as a comb in the gradient profile).
+//! - Layout: the paper's regular grid by default; optionally (not in the
+//!   paper) staggered, rows of random height each with its own random
+//!   spacing, so that block outlines do not form a lattice.
 //! - Parallel and deterministic: a block depends on the earlier blocks it
 //!   overlaps (on the regular grid, its left, top and top-right
 //!   neighbours, so all blocks with equal 2i + j are independent); each
@@ -41,6 +40,7 @@ use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
 /// Parameters of image quilting.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -147,11 +147,11 @@ pub struct QuiltParams {
     /// stay under the rarity bound alone.
     ///
     /// Default 0.5: on the 12 real exemplars of examples/engine_quality
-    /// (seeds 1-3) completeness over self-similarity went 0.463 -> 0.457
-    /// (rust blooms 0.46 -> 0.39, peeling red paint 0.57 -> 0.37) and the
-    /// material drift 0.106 -> 0.096, at the cost of coherence 0.459 ->
-    /// 0.490; a blind review of seed 2 preferred it on 6 photos, the
-    /// plain costs on 3. On a synthetic stucco with a corner of teal gravel
+    /// (seeds 1-3) completeness over self-similarity went 0.463 -> 0.448
+    /// (rust blooms 0.46 -> 0.39, peeling red paint 0.57 -> 0.46) and the
+    /// material drift 0.106 -> 0.089, at the cost of coherence 0.459 ->
+    /// 0.479; blind reviews preferred it on 6 photos against 3 (seed 2,
+    /// before the clip) and split 4 to 4 (seed 3). On a synthetic stucco with a corner of teal gravel
     /// it drops the corner (0.1-2.5% teal against the exemplar's 9%).
     /// Not applied to texture transfer, nor to tileable quilts, whose cuts
     /// are not blended: there a costlier cut through busy material shows
@@ -709,11 +709,10 @@ struct Slot {
     /// neighbours the lattice keeps it in phase with.
     left: Option<usize>,
     above: Option<usize>,
-    /// Seeds its random choice.
-    cell: u64,
 }
 
-/// Where the blocks of one pass go, and in which waves: every block of a
+/// Where the blocks of one pass go (a block's index seeds its random
+/// choice), and in which waves: every block of a
 /// wave depends only on blocks of earlier waves (those it overlaps that
 /// come before it in row order), so a wave is planned in parallel and
 /// pasted in a fixed order.
@@ -746,9 +745,8 @@ impl Layout {
                     right: if wrap && j + 1 == nx { xs[j] + bw - width } else { 0 },
                     bottom: if wrap && i + 1 == ny { ys[i] + bh - height } else { 0 },
                 };
-                let cell = (i * nx + j) as u64;
                 let (left, above) = ((j > 0).then(|| i * nx + j - 1), (i > 0).then(|| (i - 1) * nx + j));
-                blocks.push(Slot { at: (xs[j], ys[i]), strips, left, above, cell });
+                blocks.push(Slot { at: (xs[j], ys[i]), strips, left, above });
             }
         }
         let mut waves = vec![Vec::new(); 2 * (ny - 1) + nx];
@@ -812,7 +810,7 @@ impl Layout {
                     right: 0,
                     bottom: 0,
                 };
-                blocks.push(Slot { at: (x, y), strips, left, above, cell: k as u64 });
+                blocks.push(Slot { at: (x, y), strips, left, above });
                 wave_of.push(wave);
             }
         }
@@ -855,7 +853,7 @@ impl Pass<'_> {
                     let b = &layout.blocks[k];
                     let neighbours = [b.left, b.above].into_iter().flatten().filter_map(|n| shifts[n]);
                     let cached = factors.iter().find(|(s, _)| *s == b.strips).map(|(_, f)| f.as_slice());
-                    (k, self.place(&canvas, &usage, b.at, b.strips, neighbours, b.cell, cached))
+                    (k, self.place(&canvas, &usage, b.at, b.strips, neighbours, k as u64, cached))
                 })
                 .collect();
             for (k, p) in planned {
@@ -913,18 +911,14 @@ impl Pass<'_> {
                 spec.add_term_into(&mut q, t, &full, scales.2);
             }
             let mut costs = self.spectral.finish(q);
-            // Overlap-only costs relative to the candidate's own twin error.
-            let computed: Vec<f32>;
-            let relative: Option<&[f32]> = match self.twin.filter(|_| m_sum > 0.0 && prev.is_none() && guide_t.is_none()) {
-                None => None,
-                Some(_) if cached.is_some() => cached,
-                Some(t) => {
-                    computed = self.relative_factors(t, strips);
-                    Some(&computed)
-                }
-            };
-            if let Some(r) = relative {
-                costs.iter_mut().zip(r).for_each(|(c, f)| *c *= f);
+            // Overlap costs relative to the candidate's own twin error (the
+            // twin error is only there for unguided quilts).
+            let relative: Option<Cow<[f32]>> = self
+                .twin
+                .filter(|_| m_sum > 0.0)
+                .map(|t| cached.map_or_else(|| Cow::Owned(self.relative_factors(t, strips)), Cow::Borrowed));
+            if let Some(r) = &relative {
+                costs.iter_mut().zip(r.iter()).for_each(|(c, f)| *c *= f);
             }
             if let Some(u) = &self.usable {
                 costs.iter_mut().zip(u).filter(|(_, ok)| !**ok).for_each(|(c, _)| *c = f32::INFINITY);
@@ -948,7 +942,7 @@ impl Pass<'_> {
             let exact = |sx: usize, sy: usize| {
                 let mut e = 0.0;
                 if m_sum > 0.0 {
-                    let f = relative.map_or(1.0, |r| r[sy * vw + sx]);
+                    let f = relative.as_ref().map_or(1.0, |r| r[sy * vw + sx]);
                     e += f * scales.0 * masked_ssd(self.source, self.weights, &template, &overlap_mask, bw, bh, sx, sy);
                 }
                 if let Some(p) = &prev {
