@@ -25,7 +25,7 @@ pub fn integrate(mh: &[f32], mv: &[f32], w: usize, h: usize, lambda: f32) -> Vec
     assert!(mh.len() == w * h && mv.len() == w * h, "one mismatch per pixel and direction");
     // Right-hand side: the divergence of the mismatch field.
     let mut b = vec![0f32; w * h];
-    b.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+    for_rows(&mut b, w, |y, row| {
         for (x, out) in row.iter_mut().enumerate() {
             let i = y * w + x;
             let mut v = 0.0;
@@ -51,6 +51,22 @@ pub fn integrate(mh: &[f32], mv: &[f32], w: usize, h: usize, lambda: f32) -> Vec
     d
 }
 
+/// Grids smaller than this many pixels are swept on one thread: on the
+/// coarse levels rayon's hand-offs cost more than the sweeps (they were
+/// about a third of a 1 MP solve's time).
+const PARALLEL_FROM: usize = 1 << 16;
+
+/// Run `f(y, row)` over the w-wide rows of `data`, in parallel on grids of
+/// at least [`PARALLEL_FROM`] pixels. Each row's arithmetic is the same
+/// either way, so the result does not depend on it.
+fn for_rows(data: &mut [f32], w: usize, f: impl Fn(usize, &mut [f32]) + Sync) {
+    if data.len() >= PARALLEL_FROM {
+        data.par_chunks_mut(w).enumerate().for_each(|(y, row)| f(y, row));
+    } else {
+        data.chunks_mut(w).enumerate().for_each(|(y, row)| f(y, row));
+    }
+}
+
 /// Half-size average of a w x h grid (cell-centred restriction).
 fn restrict(r: &[f32], w: usize, h: usize) -> (Vec<f32>, usize, usize) {
     let (cw, ch) = (w.div_ceil(2), h.div_ceil(2));
@@ -68,14 +84,19 @@ fn restrict(r: &[f32], w: usize, h: usize) -> (Vec<f32>, usize, usize) {
 
 /// Add the bilinear (cell-centred) prolongation of the coarse `ec` to `d`.
 fn prolong_add(d: &mut [f32], w: usize, ec: &[f32], cw: usize, ch: usize) {
-    d.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+    // Each column's two coarse columns and weight, found once.
+    let columns: Vec<(usize, usize, f32)> = (0..w)
+        .map(|x| {
+            let fx = ((x as f32 + 0.5) / 2.0 - 0.5).clamp(0.0, (cw - 1) as f32);
+            let (x0, tx) = (fx.floor() as usize, fx.fract());
+            (x0, (x0 + 1).min(cw - 1), tx)
+        })
+        .collect();
+    for_rows(d, w, |y, row| {
         let fy = ((y as f32 + 0.5) / 2.0 - 0.5).clamp(0.0, (ch - 1) as f32);
         let (y0, ty) = (fy.floor() as usize, fy.fract());
         let y1 = (y0 + 1).min(ch - 1);
-        for (x, v) in row.iter_mut().enumerate() {
-            let fx = ((x as f32 + 0.5) / 2.0 - 0.5).clamp(0.0, (cw - 1) as f32);
-            let (x0, tx) = (fx.floor() as usize, fx.fract());
-            let x1 = (x0 + 1).min(cw - 1);
+        for (v, &(x0, x1, tx)) in row.iter_mut().zip(&columns) {
             let top = ec[y0 * cw + x0] * (1.0 - tx) + ec[y0 * cw + x1] * tx;
             let bottom = ec[y1 * cw + x0] * (1.0 - tx) + ec[y1 * cw + x1] * tx;
             *v += top * (1.0 - ty) + bottom * ty;
@@ -142,40 +163,80 @@ fn neighbours(d: &[f32], w: usize, h: usize, x: usize, y: usize) -> (f32, f32) {
     (sum, k)
 }
 
+/// Rows per band of a Gauss-Seidel half-sweep (see [`gauss_seidel`]).
+const BAND: usize = 16;
+
 /// Red-black Gauss-Seidel: the red pixels (x + y even) from the black ones,
-/// then the black from the red; each half in parallel by rows. Interior
-/// pixels take a branch-free path (four neighbours).
+/// then the black from the red. A half-sweep reads only the other colour,
+/// which it does not change, so it updates in place: bands of [`BAND`]
+/// rows in parallel, each reading the rows just outside it from a copy of
+/// them taken before the half-sweep (the same values it would read in
+/// place). Interior pixels take a branch-free path (four neighbours).
 fn gauss_seidel(d: &mut [f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f32) {
     let inner = 1.0 / (4.0 * s + lambda);
+    let bands = h.div_ceil(BAND);
+    let mut halo = vec![0f32; 2 * bands * w];
     for colour in 0..2 {
-        let snapshot = d.to_vec();
-        d.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            let first = (y + colour) % 2;
-            if y == 0 || y + 1 == h || w < 3 {
+        for k in 0..bands {
+            let (y0, y1) = (k * BAND, ((k + 1) * BAND).min(h));
+            if y0 > 0 {
+                halo[2 * k * w..(2 * k + 1) * w].copy_from_slice(&d[(y0 - 1) * w..y0 * w]);
+            }
+            if y1 < h {
+                halo[(2 * k + 1) * w..(2 * k + 2) * w].copy_from_slice(&d[y1 * w..(y1 + 1) * w]);
+            }
+        }
+        let sweep = |k: usize, band: &mut [f32]| {
+            let y0 = k * BAND;
+            let rows = band.len() / w;
+            let (above, below) = (&halo[2 * k * w..(2 * k + 1) * w], &halo[(2 * k + 1) * w..(2 * k + 2) * w]);
+            for r in 0..rows {
+                let y = y0 + r;
+                let first = (y + colour) % 2;
+                let brow = &b[y * w..(y + 1) * w];
+                let (before, rest) = band.split_at_mut(r * w);
+                let (mid, after) = rest.split_at_mut(w);
+                let up = if r > 0 { &before[(r - 1) * w..] } else { above };
+                let down = if r + 1 < rows { &after[..w] } else { below };
+                let interior_row = y > 0 && y + 1 < h && w >= 3;
                 for x in (first..w).step_by(2) {
-                    let (sum, k) = neighbours(&snapshot, w, h, x, y);
-                    row[x] = (b[y * w + x] + s * sum) / (s * k + lambda);
+                    if interior_row && x > 0 && x + 1 < w {
+                        mid[x] = (brow[x] + s * (mid[x - 1] + mid[x + 1] + up[x] + down[x])) * inner;
+                    } else {
+                        let (mut sum, mut n) = (0f32, 0f32);
+                        if x > 0 {
+                            sum += mid[x - 1];
+                            n += 1.0;
+                        }
+                        if x + 1 < w {
+                            sum += mid[x + 1];
+                            n += 1.0;
+                        }
+                        if y > 0 {
+                            sum += up[x];
+                            n += 1.0;
+                        }
+                        if y + 1 < h {
+                            sum += down[x];
+                            n += 1.0;
+                        }
+                        mid[x] = (brow[x] + s * sum) / (s * n + lambda);
+                    }
                 }
-                return;
             }
-            let (up, mid, down) = (&snapshot[(y - 1) * w..y * w], &snapshot[y * w..(y + 1) * w], &snapshot[(y + 1) * w..(y + 2) * w]);
-            let brow = &b[y * w..(y + 1) * w];
-            for x in (first..w).step_by(2) {
-                if x == 0 || x + 1 == w {
-                    let (sum, k) = neighbours(&snapshot, w, h, x, y);
-                    row[x] = (brow[x] + s * sum) / (s * k + lambda);
-                } else {
-                    row[x] = (brow[x] + s * (mid[x - 1] + mid[x + 1] + up[x] + down[x])) * inner;
-                }
-            }
-        });
+        };
+        if d.len() >= PARALLEL_FROM {
+            d.par_chunks_mut(BAND * w).enumerate().for_each(|(k, band)| sweep(k, band));
+        } else {
+            d.chunks_mut(BAND * w).enumerate().for_each(|(k, band)| sweep(k, band));
+        }
     }
 }
 
 /// b - (s L + lambda) d.
 fn residual(d: &[f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f32) -> Vec<f32> {
     let mut r = vec![0f32; w * h];
-    r.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+    for_rows(&mut r, w, |y, row| {
         for (x, v) in row.iter_mut().enumerate() {
             let (sum, k) = neighbours(d, w, h, x, y);
             let i = y * w + x;
