@@ -2,7 +2,9 @@
 //! texture (stochastic gravel, tiles, planks) and kind of weathering (a
 //! crack network over the whole surface, 37% peeling with lips, 10% rust),
 //! the age map's ROC AUC against the mask and the intact texture's residue
-//! ([`patina::metrics::weathering_residue`]), with the time of both.
+//! ([`patina::metrics::weathering_residue`]), with the time of both; and
+//! per base the share its clean texture is judged weathered (a false
+//! positive).
 //!
 //!     cargo run --release -p patina --example age_auc -- 256   # image side
 use patina::metrics::{roc_auc, weathering_residue};
@@ -15,7 +17,41 @@ fn main() {
     let only: Option<String> = std::env::args().nth(2);
     println!("{:8} {:13} {:>5} {:>6} {:>8} {:>7} {:>7}", "base", "weathering", "area", "AUC", "residue", "age s", "intact s");
     println!("(then: the fraction judged weathered, and whether the intact texture used a tile grid)");
+    let mut ap = AgeParams::default();
+    if let Ok(k) = std::env::var("AGE_K") {
+        ap.k_fraction = Some(k.parse().unwrap());
+    }
+    if let Ok(d) = std::env::var("AGE_DETAIL") {
+        ap.detail = d.parse().unwrap();
+    }
+    if std::env::var("AGE_KNN").is_ok() {
+        ap.prevalence = patina::weather::age::Prevalence::KNearest;
+    }
+    if std::env::var("AGE_NO_REGIONS").is_ok() {
+        ap.regions = false;
+    }
     for base in ["stucco", "gravel", "tiles", "planks"] {
+        // The clean texture itself: whatever it judges weathered is a false
+        // positive (its intact texture re-makes that much sound material).
+        if only.as_deref().is_none_or(|o| format!("{base} clean").contains(o)) {
+            let clean = samples::by_name(base, size, size, 3).unwrap();
+            let t = Instant::now();
+            let a = age_map(&clean, &ap).unwrap();
+            let t_age = t.elapsed().as_secs_f32();
+            let t = Instant::now();
+            let result = intact(&clean, &a.map, None, &IntactParams::default(), 5).unwrap();
+            let t_intact = t.elapsed().as_secs_f32();
+            let mean_age = a.map.data().iter().sum::<f32>() / a.map.data().len() as f32;
+            println!(
+                "{base:8} {:13} {:5.2} {:>6} {:>8} {t_age:7.2} {t_intact:7.2} {:6.2} {} (mean age {mean_age:.2})",
+                "clean",
+                0.0,
+                "-",
+                "-",
+                result.weathered_fraction,
+                result.lattice.is_some()
+            );
+        }
         for (kind, area, name) in [
             (Weathering::CrackNetwork, 0.0, "crack network"),
             (Weathering::Peel, 0.32, "peel 37%"),
@@ -28,16 +64,6 @@ fn main() {
             let clean = samples::by_name(base, size, size, 3).unwrap();
             let (img, mask) = samples::weather(&clean, kind, area, 11);
             let t = Instant::now();
-            let mut ap = AgeParams::default();
-            if let Ok(k) = std::env::var("AGE_K") {
-                ap.k_fraction = Some(k.parse().unwrap());
-            }
-            if let Ok(d) = std::env::var("AGE_DETAIL") {
-                ap.detail = d.parse().unwrap();
-            }
-            if std::env::var("AGE_KNN").is_ok() {
-                ap.prevalence = patina::weather::age::Prevalence::KNearest;
-            }
             let a = age_map(&img, &ap).unwrap();
             let t_age = t.elapsed().as_secs_f32();
             let auc = roc_auc(a.map.data(), mask.bits());
