@@ -337,8 +337,8 @@ pub const REGION_SIDE: usize = 48;
 /// The age of every cell as the share of the image's regions (blocks of
 /// cells at least [`REGION_SIDE`] px wide) that hold no match for it. A
 /// match is a minimum below the cell's own scale (twice the mean of its
-/// [`OWN_MATCHES`] best minima, plus a floor of half the median such
-/// scale), with a soft step. Unlike the mean of the K smallest distances,
+/// [`OWN_MATCHES`] best minima, plus a floor: the median over cells of a
+/// cell's median regional minimum, its typical match), with a soft step. Unlike the mean of the K smallest distances,
 /// this counts regions rather than summing distances, so smooth weathering
 /// (bare plaster, whose distances are all small) is not mistaken for
 /// intact material when the intact material is busier, and a weathering
@@ -369,9 +369,21 @@ fn coverage_ages(minima: &[Vec<f32>], n: usize, cell: usize) -> Vec<f32> {
             m[..OWN_MATCHES].iter().sum::<f32>() / OWN_MATCHES as f32
         })
         .collect();
-    let mut sorted = own.clone();
-    sorted.sort_by(f32::total_cmp);
-    let floor = 0.5 * sorted[sorted.len() / 2];
+    // The floor is the median over cells of each cell's typical match (its
+    // median regional minimum). Half the median own-match collapsed where
+    // the texture nearly repeats itself: every cell's best matches are
+    // near-exact twins, so ordinary matches elsewhere counted as none (a
+    // clean brick wall texture that repeats once came out 60% weathered).
+    let mut typical: Vec<f32> = regional
+        .iter()
+        .map(|m| {
+            let mut m = m.clone();
+            let mid = m.len() / 2;
+            *m.select_nth_unstable_by(mid, f32::total_cmp).1
+        })
+        .collect();
+    let mid = typical.len() / 2;
+    let floor = *typical.select_nth_unstable_by(mid, f32::total_cmp).1;
     regional
         .iter()
         .zip(&own)
