@@ -143,21 +143,16 @@ fn v_cycle(d: &mut [f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f32) {
 #[inline]
 fn neighbours(d: &[f32], w: usize, h: usize, x: usize, y: usize) -> (f32, f32) {
     let i = y * w + x;
+    edge_sum([(x > 0).then(|| d[i - 1]), (x + 1 < w).then(|| d[i + 1]), (y > 0).then(|| d[i - w]), (y + 1 < h).then(|| d[i + w])])
+}
+
+/// Sum and count of the neighbours that exist (left, right, up, down), added
+/// in that order so every caller rounds alike.
+#[inline]
+fn edge_sum(values: [Option<f32>; 4]) -> (f32, f32) {
     let (mut sum, mut k) = (0f32, 0f32);
-    if x > 0 {
-        sum += d[i - 1];
-        k += 1.0;
-    }
-    if x + 1 < w {
-        sum += d[i + 1];
-        k += 1.0;
-    }
-    if y > 0 {
-        sum += d[i - w];
-        k += 1.0;
-    }
-    if y + 1 < h {
-        sum += d[i + w];
+    for v in values.into_iter().flatten() {
+        sum += v;
         k += 1.0;
     }
     (sum, k)
@@ -203,23 +198,12 @@ fn gauss_seidel(d: &mut [f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f3
                     if interior_row && x > 0 && x + 1 < w {
                         mid[x] = (brow[x] + s * (mid[x - 1] + mid[x + 1] + up[x] + down[x])) * inner;
                     } else {
-                        let (mut sum, mut n) = (0f32, 0f32);
-                        if x > 0 {
-                            sum += mid[x - 1];
-                            n += 1.0;
-                        }
-                        if x + 1 < w {
-                            sum += mid[x + 1];
-                            n += 1.0;
-                        }
-                        if y > 0 {
-                            sum += up[x];
-                            n += 1.0;
-                        }
-                        if y + 1 < h {
-                            sum += down[x];
-                            n += 1.0;
-                        }
+                        let (sum, n) = edge_sum([
+                            (x > 0).then(|| mid[x - 1]),
+                            (x + 1 < w).then(|| mid[x + 1]),
+                            (y > 0).then(|| up[x]),
+                            (y + 1 < h).then(|| down[x]),
+                        ]);
                         mid[x] = (brow[x] + s * sum) / (s * n + lambda);
                     }
                 }
