@@ -30,17 +30,21 @@ fn main() {
     if std::env::var("AGE_NO_REGIONS").is_ok() {
         ap.regions = false;
     }
+    // The age map and the intact texture of `img`, each with its time.
+    let measure = |img: &patina::Image| {
+        let t = Instant::now();
+        let a = age_map(img, &ap).unwrap();
+        let t_age = t.elapsed().as_secs_f32();
+        let t = Instant::now();
+        let result = intact(img, &a.map, None, &IntactParams::default(), 5).unwrap();
+        (a, t_age, result, t.elapsed().as_secs_f32())
+    };
     for base in ["stucco", "gravel", "tiles", "planks"] {
+        let clean = samples::by_name(base, size, size, 3).unwrap();
         // The clean texture itself: whatever it judges weathered is a false
         // positive (its intact texture re-makes that much sound material).
         if only.as_deref().is_none_or(|o| format!("{base} clean").contains(o)) {
-            let clean = samples::by_name(base, size, size, 3).unwrap();
-            let t = Instant::now();
-            let a = age_map(&clean, &ap).unwrap();
-            let t_age = t.elapsed().as_secs_f32();
-            let t = Instant::now();
-            let result = intact(&clean, &a.map, None, &IntactParams::default(), 5).unwrap();
-            let t_intact = t.elapsed().as_secs_f32();
+            let (a, t_age, result, t_intact) = measure(&clean);
             let mean_age = a.map.data().iter().sum::<f32>() / a.map.data().len() as f32;
             println!(
                 "{base:8} {:13} {:5.2} {:>6} {:>8} {t_age:7.2} {t_intact:7.2} {:6.2} {} (mean age {mean_age:.2})",
@@ -61,18 +65,12 @@ fn main() {
             if only.as_deref().is_some_and(|o| !format!("{base} {name}").contains(o)) {
                 continue;
             }
-            let clean = samples::by_name(base, size, size, 3).unwrap();
             let (img, mask) = samples::weather(&clean, kind, area, 11);
-            let t = Instant::now();
-            let a = age_map(&img, &ap).unwrap();
-            let t_age = t.elapsed().as_secs_f32();
+            let (a, t_age, result, t_intact) = measure(&img);
             let auc = roc_auc(a.map.data(), mask.bits());
             if std::env::var("AGE_DEBUG").is_ok() {
                 eprintln!("{base} {name}: {:?}", a.periodicity.map(|p| p.vectors()));
             }
-            let t = Instant::now();
-            let result = intact(&img, &a.map, None, &IntactParams::default(), 5).unwrap();
-            let t_intact = t.elapsed().as_secs_f32();
             let residue = weathering_residue(&result.image, &clean, &img, &mask, 5, 1).unwrap();
             let share = mask.count() as f32 / (size * size) as f32;
             let (judged, grid) = (result.weathered_fraction, result.lattice.is_some());

@@ -25,7 +25,7 @@ pub fn integrate(mh: &[f32], mv: &[f32], w: usize, h: usize, lambda: f32) -> Vec
     assert!(mh.len() == w * h && mv.len() == w * h, "one mismatch per pixel and direction");
     // Right-hand side: the divergence of the mismatch field.
     let mut b = vec![0f32; w * h];
-    for_rows(&mut b, w, |y, row| {
+    for_chunks(&mut b, w, |y, row| {
         for (x, out) in row.iter_mut().enumerate() {
             let i = y * w + x;
             let mut v = 0.0;
@@ -56,14 +56,14 @@ pub fn integrate(mh: &[f32], mv: &[f32], w: usize, h: usize, lambda: f32) -> Vec
 /// about a third of a 1 MP solve's time).
 const PARALLEL_FROM: usize = 1 << 16;
 
-/// Run `f(y, row)` over the w-wide rows of `data`, in parallel on grids of
-/// at least [`PARALLEL_FROM`] pixels. Each row's arithmetic is the same
-/// either way, so the result does not depend on it.
-fn for_rows(data: &mut [f32], w: usize, f: impl Fn(usize, &mut [f32]) + Sync) {
+/// Run `f(k, chunk)` over the `len`-long chunks of `data`, in parallel on
+/// grids of at least [`PARALLEL_FROM`] pixels. Each chunk's arithmetic is
+/// the same either way, so the result does not depend on it.
+fn for_chunks(data: &mut [f32], len: usize, f: impl Fn(usize, &mut [f32]) + Sync) {
     if data.len() >= PARALLEL_FROM {
-        data.par_chunks_mut(w).enumerate().for_each(|(y, row)| f(y, row));
+        data.par_chunks_mut(len).enumerate().for_each(|(k, chunk)| f(k, chunk));
     } else {
-        data.chunks_mut(w).enumerate().for_each(|(y, row)| f(y, row));
+        data.chunks_mut(len).enumerate().for_each(|(k, chunk)| f(k, chunk));
     }
 }
 
@@ -92,7 +92,7 @@ fn prolong_add(d: &mut [f32], w: usize, ec: &[f32], cw: usize, ch: usize) {
             (x0, (x0 + 1).min(cw - 1), tx)
         })
         .collect();
-    for_rows(d, w, |y, row| {
+    for_chunks(d, w, |y, row| {
         let fy = ((y as f32 + 0.5) / 2.0 - 0.5).clamp(0.0, (ch - 1) as f32);
         let (y0, ty) = (fy.floor() as usize, fy.fract());
         let y1 = (y0 + 1).min(ch - 1);
@@ -209,18 +209,14 @@ fn gauss_seidel(d: &mut [f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f3
                 }
             }
         };
-        if d.len() >= PARALLEL_FROM {
-            d.par_chunks_mut(BAND * w).enumerate().for_each(|(k, band)| sweep(k, band));
-        } else {
-            d.chunks_mut(BAND * w).enumerate().for_each(|(k, band)| sweep(k, band));
-        }
+        for_chunks(d, BAND * w, sweep);
     }
 }
 
 /// b - (s L + lambda) d.
 fn residual(d: &[f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f32) -> Vec<f32> {
     let mut r = vec![0f32; w * h];
-    for_rows(&mut r, w, |y, row| {
+    for_chunks(&mut r, w, |y, row| {
         for (x, v) in row.iter_mut().enumerate() {
             let (sum, k) = neighbours(d, w, h, x, y);
             let i = y * w + x;

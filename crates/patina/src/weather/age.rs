@@ -338,8 +338,9 @@ pub const REGION_SIDE: usize = 48;
 /// cells at least [`REGION_SIDE`] px wide) that hold no match for it. A
 /// match is a minimum below the cell's own scale (twice the mean of its
 /// [`OWN_MATCHES`] best minima, plus a floor: the median over cells of a
-/// cell's median regional minimum, its typical match), with a soft step. Unlike the mean of the K smallest distances,
-/// this counts regions rather than summing distances, so smooth weathering
+/// cell's median regional minimum, its typical match), with a soft step.
+/// Unlike the mean of the K smallest distances, this counts regions
+/// rather than summing distances, so smooth weathering
 /// (bare plaster, whose distances are all small) is not mistaken for
 /// intact material when the intact material is busier, and a weathering
 /// over 40% of the surface still covers fewer regions than the material
