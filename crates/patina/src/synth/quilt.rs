@@ -151,8 +151,9 @@ pub struct QuiltParams {
     /// (rust blooms 0.46 -> 0.39, peeling red paint 0.57 -> 0.46) and the
     /// material drift 0.106 -> 0.089, at the cost of coherence 0.459 ->
     /// 0.479; blind reviews preferred it on 6 photos against 3 (seed 2,
-    /// before the clip) and split 4 to 4 (seed 3). On a synthetic stucco with a corner of teal gravel
-    /// it drops the corner (0.1-2.5% teal against the exemplar's 9%).
+    /// before the clip) and split 4 to 4 (seed 3). On a synthetic stucco
+    /// with a corner of teal gravel it drops the corner (0.1-2.5% teal
+    /// against the exemplar's 9%).
     /// Not applied to texture transfer, nor to tileable quilts, whose cuts
     /// are not blended: there a costlier cut through busy material shows
     /// as a step across the tile's edge.
