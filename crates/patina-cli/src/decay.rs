@@ -203,6 +203,7 @@ pub fn run(args: Args) -> Result<()> {
     let decayed = |f: &decay::Frame| f.degree.data().iter().filter(|&&d| d > decay::degree::GROWTH_THRESHOLD).count() as f64 / inside;
     manifest.metrics.insert("decayed_fraction".into(), json!(frames.iter().map(decayed).collect::<Vec<_>>()));
     manifest.metrics.insert("algorithm1_draws".into(), json!(prepared.draws));
+    manifest.metrics.insert("texture_focus_blur_px".into(), json!(prepared.focus));
     manifest
         .metrics
         .insert("diffusion_sigma_px".into(), json!(params.diffusion.spread * prepared.mask.width().max(prepared.mask.height()) as f32));

@@ -37,7 +37,7 @@
 //! has begun (D > 0), so pixels at D = 0 stay the photo's bytes.
 
 use super::layer::{self, Relief};
-use crate::image::color::{lab_pixel_to_srgb, linear_pixel_to_lab, srgb_to_linear, LUMA};
+use crate::image::color::{lab_pixel_to_srgb, linear_pixel_to_lab, luminance, srgb_to_linear, LUMA};
 use crate::image::filter::{gaussian_blur, shrunk_blur};
 use crate::image::noise::{smoothstep, Layer};
 use crate::image::{Image, Mask};
@@ -56,11 +56,15 @@ pub struct Transition {
     /// Where the zone falls relative to the decay, in pixels (a flake's
     /// shadow falls down-right).
     pub offset: [f32; 2],
+    /// How far the zone runs down the image below the decay, in pixels, as
+    /// thin streaks (rust's runoff: water carries the oxide down the
+    /// object); 0 for none.
+    pub drip: f32,
 }
 
 impl Transition {
     /// No zone: eq. 3 alone.
-    pub const NONE: Transition = Transition { width: 0.0, tint: [1.0; 3], strength: 0.0, offset: [0.0; 2] };
+    pub const NONE: Transition = Transition { width: 0.0, tint: [1.0; 3], strength: 0.0, offset: [0.0; 2], drip: 0.0 };
 
     /// Where each pixel reads the zone's rim, and how dense the zone is
     /// there: the part of [`Transition::weights`] that does not change
@@ -72,7 +76,23 @@ impl Transition {
         let [dx, dy] = self.offset;
         let (warp_x, warp_y, density) = (Layer::new(seed, 950), Layer::new(seed, 951), Layer::new(seed, 952));
         let scale = 2.0 * self.width.max(1.0);
-        let mut field = StainField { transition: *self, source: vec![0; width * height], density: vec![0.0; width * height] };
+        let mut field =
+            StainField { transition: *self, width, source: vec![0; width * height], density: vec![0.0; width * height], streaks: Vec::new() };
+        if self.drip > 0.0 {
+            // Streaks: noise stretched 6:1 down the image (10 px across, 60
+            // px along), so the runoff parts into rivulets.
+            // A broader field gathers them into runs and dry gaps, so they are
+            // not spaced like the teeth of a comb.
+            let (streak, runs) = (Layer::new(seed, 953), Layer::new(seed, 954));
+            field.streaks = vec![0.0; width * height];
+            field.streaks.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+                for (x, v) in row.iter_mut().enumerate() {
+                    let (fx, fy) = (x as f32, y as f32);
+                    *v = smoothstep(-0.2, 0.15, streak.fbm(6.0 * fx, fy, 60.0, 3, 0.5))
+                        * smoothstep(-0.25, 0.2, runs.fbm(3.0 * fx, fy, 120.0, 2, 0.5));
+                }
+            });
+        }
         field.source.par_chunks_mut(width).zip(field.density.par_chunks_mut(width)).enumerate().for_each(|(y, (src, dense))| {
             for x in 0..width {
                 let (fx, fy) = (x as f32, y as f32);
@@ -91,12 +111,16 @@ impl Transition {
 /// A [`Transition`] laid out over one photo ([`Transition::field`]).
 pub struct StainField {
     transition: Transition,
+    width: usize,
     /// Per pixel, the pixel whose blurred weight it reads: shifted by the
     /// offset and displaced by up to one width with coordinate noise (so
     /// the rim is ragged, as stains are, not a glow of even width).
     source: Vec<u32>,
     /// Per pixel, a noisy density in [0.4, 1].
     density: Vec<f32>,
+    /// Per pixel, how much of the runoff passes there, in [0, 1] (empty
+    /// without a drip).
+    streaks: Vec<f32>,
 }
 
 impl StainField {
@@ -104,15 +128,33 @@ impl StainField {
     /// map `w`: strength x min(1, 2 x blur(w)) read at the pixel's source,
     /// times its density, times (1 - w) (the texture covers its own
     /// pixels), faded in over the first 0.01 of D (none where D = 0).
+    /// With a drip, the rim is at least the runoff from above: the
+    /// unwarped rim carried down each column, fading by e every `drip`
+    /// pixels, times the streaks and 0.8.
     pub fn weights(&self, w: &Image, degree: &Image) -> Vec<f32> {
         let t = &self.transition;
         let near = coarse_blur(w, t.width);
         let (w, degree, near) = (w.data(), degree.data(), near.data());
+        let runoff = (t.drip > 0.0).then(|| {
+            let fade = (-1.0 / t.drip).exp();
+            let mut carried = vec![0f32; self.width];
+            let mut out = vec![0f32; near.len()];
+            for (row, out) in near.chunks_exact(self.width).zip(out.chunks_exact_mut(self.width)) {
+                for ((c, &n), o) in carried.iter_mut().zip(row).zip(out) {
+                    *c = (*c * fade).max((2.0 * n).min(1.0));
+                    *o = *c;
+                }
+            }
+            out
+        });
         let mut out = vec![0f32; w.len()];
         out.par_iter_mut().enumerate().for_each(|(i, o)| {
             let d = degree[i];
             if d > 0.0 && w[i] < 1.0 {
-                let rim = (2.0 * near[self.source[i] as usize]).min(1.0);
+                let mut rim = (2.0 * near[self.source[i] as usize]).min(1.0);
+                if let Some(r) = &runoff {
+                    rim = rim.max(r[i] * self.streaks[i]);
+                }
                 *o = t.strength * rim * self.density[i] * (1.0 - w[i]) * smoothstep(0.0, 0.01, d);
             }
         });
@@ -317,6 +359,93 @@ pub struct Layers<'a> {
     pub relief: Relief,
     /// Towards the photo's light, in the image plane ([`super::layer::light_direction`]).
     pub light: [f32; 2],
+    /// How much of each pixel the object covers ([`edge_coverage`]);
+    /// `None`: all of every pixel.
+    pub coverage: Option<&'a Image>,
+    /// The photo's softness as a Gaussian sigma in pixels ([`focus_blur`]),
+    /// which the decay's edges take too; 0 for a sharp photo.
+    pub focus: f32,
+}
+
+/// Largest blur [`focus_blur`] gives a texture, in pixels.
+const MAX_FOCUS_BLUR: f32 = 2.0;
+
+/// The fineness of `lum`'s detail over the pixels `keep` selects: the
+/// mean absolute forward difference over the same after a Gaussian of 1
+/// px. About 2.4 for pixel-sharp noise, falling towards 1 as an image is
+/// defocused (the 1 px blur then removes little).
+fn fineness(lum: &Image, keep: impl Fn(usize) -> bool) -> f32 {
+    let soft = gaussian_blur(lum, 1.0);
+    let w = lum.width();
+    let steps = |img: &Image| {
+        let d = img.data();
+        let mut sum = 0f64;
+        for y in 0..img.height() - 1 {
+            for x in 0..w - 1 {
+                let i = y * w + x;
+                if keep(i) {
+                    sum += ((d[i + 1] - d[i]).abs() + (d[i + w] - d[i]).abs()) as f64;
+                }
+            }
+        }
+        sum
+    };
+    (steps(lum) / steps(&soft).max(1e-12)) as f32
+}
+
+/// The Gaussian blur (sigma, pixels, in 0.1 px steps up to 2) that brings
+/// a decay texture's fineness ([`fineness`], measured on its central 256
+/// x 256) down to the photo's inside the `mask` away from the silhouette
+/// (whose sharp step would count as detail); 0 when the photo is as sharp.
+/// A procedural texture is pixel-sharp, and on a soft or slightly
+/// defocused photo its grain read as pasted on.
+pub fn focus_blur(photo: &Image, mask: &Mask, texture: &Image) -> f32 {
+    let (w, h) = photo.size();
+    let inside = Image::from_fn(w, h, 1, |x, y, p| p[0] = mask.get(x, y) as u8 as f32);
+    let deep = gaussian_blur(&inside, 3.0);
+    let deep: Vec<bool> = deep.data().iter().map(|&v| v > 0.999).collect();
+    if deep.iter().filter(|&&d| d).count() < 1024 {
+        return 0.0;
+    }
+    let target = fineness(&luminance(photo), |i| deep[i]);
+    let (tw, th) = (texture.width().min(256), texture.height().min(256));
+    let crop = texture.crop((texture.width() - tw) / 2, (texture.height() - th) / 2, tw, th).expect("inside the texture");
+    let lum = luminance(&crop);
+    // Fineness falls as the blur grows: bisect for the least step that reaches the target.
+    let reaches = |k: usize| fineness(&gaussian_blur(&lum, k as f32 / 10.0), |_| true) <= target;
+    let (mut lo, mut hi) = (0, (MAX_FOCUS_BLUR * 10.0) as usize);
+    if reaches(lo) {
+        return 0.0;
+    }
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if reaches(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi as f32 / 10.0
+}
+
+/// How much of each pixel a binary object `mask` covers, for the decay's
+/// opacity: 1 inside, about 0.8 on the outermost pixels of a straight
+/// edge and less at corners and steps (smoothstep of the mask blurred at
+/// 0.8 px, from 0.5 to 0.85), 0 outside. The photo's own silhouette is
+/// anti-aliased, and a mask's is not: decay drawn at full opacity up to
+/// the mask's last pixel ended in a stair-stepped edge against a soft
+/// background. A stronger fade (about 0.35 on the outermost pixels) let
+/// the object's own pale rim show as an outline. `None` for a mask that
+/// covers the whole photo (no silhouette).
+pub fn edge_coverage(mask: &Mask) -> Option<Image> {
+    if mask.count() == mask.width() * mask.height() {
+        return None;
+    }
+    let (w, h) = mask.size();
+    let inside = Image::from_fn(w, h, 1, |x, y, p| p[0] = mask.get(x, y) as u8 as f32);
+    let mut soft = gaussian_blur(&inside, 0.8);
+    soft.data_mut().iter_mut().zip(mask.bits()).for_each(|(v, &m)| *v = if m { smoothstep(0.5, 0.85, *v) } else { 0.0 });
+    Some(soft)
 }
 
 /// Eq. 3: the photo `photo` (sRGB, its bytes kept wherever the decay is
@@ -336,11 +465,16 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
     opacity.data_mut().iter_mut().zip(degree.data()).zip(layers.onset.data()).for_each(|((v, &d), &o)| {
         *v *= young + (1.0 - young) * maturity(d, o);
     });
-    if young >= 1.0 {
-        // Whole flakes and open cracks switch on texel by texel: their
-        // edges are anti-aliased (never past the decay's own extent, D > 0).
-        opacity = gaussian_blur(&opacity, EDGE_FILTER);
+    // Whole flakes and open cracks switch on texel by texel: their edges
+    // are anti-aliased. On a soft photo every class's edges take its blur
+    // ([`focus_blur`]). Never past the decay's own extent, D > 0.
+    let edge = if young >= 1.0 { EDGE_FILTER.max(layers.focus) } else { layers.focus };
+    if edge > 0.0 {
+        opacity = gaussian_blur(&opacity, edge);
         opacity.data_mut().iter_mut().zip(degree.data()).for_each(|(v, &d)| *v = if d > 0.0 { v.min(1.0) } else { 0.0 });
+    }
+    if let Some(c) = layers.coverage {
+        opacity.data_mut().iter_mut().zip(c.data()).for_each(|(v, &c)| *v *= c);
     }
     let lighting = if channels >= 3 { layer::factor(&opacity, degree, &layers.relief, layers.light) } else { None };
     let mut out = photo.clone();
@@ -349,7 +483,7 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
             let i = y * w + x;
             let wt = opacity.data()[i];
             // Below 1/500 the glaze changes no 8-bit level: skip its colour work.
-            let b = stain.as_ref().map_or(0.0, |s| s[i]).max(0.0);
+            let b = stain.as_ref().map_or(0.0, |s| s[i]).max(0.0) * layers.coverage.map_or(1.0, |c| c.data()[i]);
             let b = if b < 0.002 { 0.0 } else { b };
             let lit = lighting.as_ref().map_or(1.0, |f| f[i]);
             if (wt <= 0.0 && b <= 0.0 && lit == 1.0) || channels < 3 {

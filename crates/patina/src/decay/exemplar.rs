@@ -157,5 +157,6 @@ pub fn measure_transition(rgb: &Image, age: &Image) -> Option<Transition> {
         tint: [0, 1, 2].map(|c| (edge[c] / far[c]).clamp(0.2, 1.2) as f32),
         strength: 1.0,
         offset: [0.0, 0.0],
+        drip: 0.0,
     })
 }

@@ -21,6 +21,7 @@ pub use shading::ShadingParams;
 pub use texture::{DecayClass, Style};
 
 use crate::image::color::{to_lab, with_colour};
+use crate::image::filter::gaussian_blur;
 use crate::image::{Image, Mask};
 use crate::synth::Progress;
 use crate::{Error, Result};
@@ -94,6 +95,8 @@ pub struct Prepared {
     pub degree: Image,
     /// Draws Algorithm 1 needed (0 for a painted degree map).
     pub draws: u64,
+    /// The blur (pixels) that matched the texture's sharpness to the photo's ([`composite::focus_blur`]).
+    pub focus: f32,
     /// Per-pixel rate (the user's regularisation map), if any.
     pub rate: Option<Image>,
     /// The stained zone around the decay.
@@ -161,6 +164,9 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     };
     let photo_lab = to_lab(photo);
     let onset = texture.select_channels(3..4);
+    // The texture's colour as the photo's lens would show it (its onsets stay sharp).
+    let focus = composite::focus_blur(photo, &mask, &texture);
+    let focused = gaussian_blur(&texture.select_channels(0..3), focus);
     // The form (shading) and the fine relief both light the decay; the
     // highlight is removed from their product as the class's gloss says.
     let form = shading::estimate(photo, &mask, &params.shading);
@@ -169,11 +175,11 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     lit.data_mut().iter_mut().zip(relief.data()).for_each(|(s, r)| *s *= r);
     let shading = shading::with_gloss(&lit, &mask, params.class.gloss());
     let texture_lab = if params.class.photo_relative() && inputs.texture.is_none() {
-        composite::darkened_photo(photo, &texture, &shading, texture::CRACKED_SURFACE)
+        composite::darkened_photo(photo, &focused, &shading, texture::CRACKED_SURFACE)
     } else {
         // The texture's own material under the photo's light, then (for
         // peeling on an unpainted object) moved to the object's colours.
-        let mut texture_lab = to_lab(&texture);
+        let mut texture_lab = to_lab(&focused);
         composite::adapt_to_scene(&mut texture_lab, &photo_lab);
         let strength = params.class.colour_transfer(composite::mean_chroma(&photo_lab, &mask));
         if strength > 0.0 {
@@ -215,6 +221,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         shading,
         degree,
         draws,
+        focus,
         rate,
         transition: inputs.transition.unwrap_or_else(|| params.class.transition()),
         light,
@@ -238,6 +245,7 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
         simulated.push(d);
     }
     let stain = prep.transition.field(prep.photo.width(), prep.photo.height(), seed);
+    let coverage = composite::edge_coverage(&prep.mask);
     let ends = (visible_share(&simulated[0], &prep.onset, &prep.mask), visible_share(&simulated[frames - 1], &prep.onset, &prep.mask));
     let mut out = Vec::with_capacity(frames);
     for k in 0..frames {
@@ -250,6 +258,8 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
             young: prep.params.class.young_opacity(),
             relief: prep.params.class.relief(),
             light: prep.light,
+            coverage: coverage.as_ref(),
+            focus: prep.focus,
         };
         let image = composite::composite(&prep.photo, &prep.photo_lab, &layers, &degree);
         out.push(Frame { degree, image });

@@ -63,10 +63,10 @@ impl DecayClass {
     /// moss leaves a damp, darker olive rim; cracks gather a little grime.
     pub fn transition(self) -> Transition {
         match self {
-            DecayClass::Rust => Transition { width: 9.0, tint: [0.85, 0.45, 0.16], strength: 1.0, offset: [0.0, 0.0] },
-            DecayClass::Peeling => Transition { width: 1.2, tint: [0.45, 0.43, 0.4], strength: 0.8, offset: [1.5, 1.5] },
-            DecayClass::Cracked => Transition { width: 1.0, tint: [0.62, 0.6, 0.57], strength: 0.6, offset: [0.0, 0.0] },
-            DecayClass::Mossy => Transition { width: 4.0, tint: [0.5, 0.56, 0.32], strength: 0.6, offset: [0.0, 0.0] },
+            DecayClass::Rust => Transition { width: 9.0, tint: [0.85, 0.45, 0.16], strength: 1.0, offset: [0.0, 0.0], drip: 110.0 },
+            DecayClass::Peeling => Transition { width: 1.2, tint: [0.45, 0.43, 0.4], strength: 0.8, offset: [1.5, 1.5], drip: 0.0 },
+            DecayClass::Cracked => Transition { width: 1.0, tint: [0.62, 0.6, 0.57], strength: 0.6, offset: [0.0, 0.0], drip: 0.0 },
+            DecayClass::Mossy => Transition { width: 4.0, tint: [0.5, 0.56, 0.32], strength: 0.6, offset: [0.0, 0.0], drip: 0.0 },
         }
     }
 
@@ -220,28 +220,41 @@ impl Generator {
 /// Rust: domain-warped layers (the swirls of corroded_rust_swirls) mapped
 /// through an oxide palette (no contour lines: reviewers read them as banding), a flaky dark
 /// crust, bright granular blooms and pixel grain; onset lowest in the
-/// deepest corrosion, ragged at small scale.
+/// deepest corrosion, ragged at small scale, with satellite pits that
+/// appear one by one over the frames and widen.
 fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let field = g.layer(0).warped(x, y, 80.0 * s, 6, 55.0 * s);
     let depth = (0.42 + 0.85 * field).clamp(0.0, 1.0);
     let grain = g.layer(2).white(x as i32, y as i32) - 0.5;
     let fine = g.layer(3).fbm(x, y, 3.0, 3, 0.6);
-    let crust = smoothstep(0.1, 0.3, g.layer(4).fbm(x, y, 14.0 * s, 4, 0.6) - 0.6 * (depth - 0.5));
+    let crust = smoothstep(0.05, 0.4, g.layer(4).fbm(x, y, 14.0 * s, 3, 0.55) - 0.6 * (depth - 0.5));
     let bloom = smoothstep(0.35, 0.55, g.layer(6).fbm(x, y, 6.0 * s, 3, 0.6)) * smoothstep(0.3, 0.6, depth);
     // Palettes from the sample photos: dark scale, red-brown, orange (a
     // pale ochre top stop made gold streaks where the field saturates).
     let red = if g.style.variant < 0.5 { [0.36, 0.12, 0.05] } else { [0.30, 0.13, 0.07] };
     let stops = [(0.0, [0.09, 0.05, 0.03]), (0.3, red), (0.58, [0.60, 0.25, 0.08]), (0.85, [0.70, 0.38, 0.13])];
     let mut c = ramp(&stops, depth + 0.1 * fine);
-    c = mix3(c, [0.16, 0.08, 0.04], 0.8 * crust);
+    c = mix3(c, [0.22, 0.095, 0.05], 0.7 * crust);
     c = mix3(c, [0.82, 0.42, 0.12], 0.7 * bloom * (1.0 - crust));
-    let shade = 1.0 + 0.22 * grain + 0.1 * fine;
+    let shade = 1.0 + 0.14 * grain + 0.1 * fine;
     c = c.map(|v| v * shade);
     let patches = g.layer(5).fbm(x, y, 70.0 * s, 4, 0.5);
     let ragged = g.layer(7).fbm(x, y, 2.5, 2, 0.5);
     let onset = 0.42 - 0.55 * patches + 0.12 * fine + 0.08 * ragged - 0.1 * crust;
-    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
+    // Satellite pits: in 40% of the cells of a 22 px lattice a pit starts
+    // at a degree of its own (0.01-0.13: the degree that diffusion carries
+    // ahead of the patches) and widens by 5 px as the degree rises 0.1
+    // past it, so new spots keep appearing ahead of the patches and grow,
+    // instead of every site being there from frame 1.
+    let pit = g.layer(10).worley(x, y, 22.0 * s);
+    let start = 0.01 + 0.12 * (pit.id * 7.31).fract();
+    let reach = (pit.f1 + 3.0 * fine).max(0.0);
+    // Each no wider than its own 2-6 px: wider, the pits filled their
+    // lattice cells as shards; all of one size, they read as polka dots.
+    let widest = 2.0 + 4.0 * (pit.id * 13.7).fract();
+    let pit_onset = if pit.id < 0.4 && reach < widest { start + 0.1 * reach / 5.0 } else { 1.0 };
+    [c[0], c[1], c[2], onset.min(pit_onset).clamp(0.02, 0.95)]
 }
 
 /// Peeling paint: the paint comes off in patches whose borders are made
