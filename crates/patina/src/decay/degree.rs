@@ -32,13 +32,17 @@ pub const AFFINITY: f32 = 0.3;
 /// and relief), rust starts in crevices, seams and round bolts (dark
 /// relief), flakes lift at edges (strong relief either way); cracks have
 /// no preference (`None`). The map is the log light's z-score inside the
-/// mask, halved and held to [-1, 1]; 0 outside.
+/// mask, halved and held to [-1, 1]; 0 outside. Rust's adds where water
+/// stands ([`wet_places`]: the object's rims and its bottom) to half its
+/// crevice z-score before the z-score is taken, which is not halved: on a
+/// slab with no crevices, rust scattered evenly over the face like cow
+/// print.
 pub fn affinity(class: DecayClass, form: &Image, relief: &Image, mask: &Mask) -> Option<Image> {
     if class == DecayClass::Cracked {
         return None;
     }
     let log = |v: f32| v.max(1e-6).ln();
-    let values: Vec<f32> = form
+    let mut values: Vec<f32> = form
         .data()
         .iter()
         .zip(relief.data())
@@ -48,16 +52,57 @@ pub fn affinity(class: DecayClass, form: &Image, relief: &Image, mask: &Mask) ->
             _ => log(r).abs(),
         })
         .collect();
+    if class == DecayClass::Rust {
+        // Water stands and runs where rust starts: at the object's rims and
+        // low down, as much as in its crevices.
+        let crevice = standardised(&values, mask);
+        let wet = wet_places(mask);
+        values.iter_mut().zip(crevice).zip(wet).for_each(|((v, c), w)| *v = 0.5 * c + w);
+    }
+    // Rust's places are the stronger pull: its z-score is not halved.
+    let gain = if class == DecayClass::Rust { 1.0 } else { 0.5 };
+    let data = standardised(&values, mask).into_iter().zip(mask.bits()).map(|(z, &m)| if m { (gain * z).clamp(-1.0, 1.0) } else { 0.0 }).collect();
+    Some(Image::from_data(mask.width(), mask.height(), 1, data).expect("one value per pixel"))
+}
+
+/// `values` as z-scores over the mask (mean 0, standard deviation 1 inside it).
+fn standardised(values: &[f32], mask: &Mask) -> Vec<f32> {
     let inside: Vec<f64> = values.iter().zip(mask.bits()).filter(|(_, &m)| m).map(|(&v, _)| v as f64).collect();
     let n = inside.len().max(1) as f64;
     let mean = inside.iter().sum::<f64>() / n;
     let std = (inside.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-6);
-    let data = values
-        .iter()
-        .zip(mask.bits())
-        .map(|(&v, &m)| if m { ((v as f64 - mean) / std / 2.0).clamp(-1.0, 1.0) as f32 } else { 0.0 })
-        .collect();
-    Some(Image::from_data(mask.width(), mask.height(), 1, data).expect("one value per pixel"))
+    values.iter().map(|&v| ((v as f64 - mean) / std) as f32).collect()
+}
+
+/// Where water stands on an object, in [0, 1.6]: up to 1 near its
+/// outline (within about a twentieth of its size; the mask blurred at
+/// that width is a half at the outline and 1 deep inside) plus up to 0.6
+/// towards its bottom. A mask that covers the whole photo has no outline,
+/// and only the bottom term.
+fn wet_places(mask: &Mask) -> Vec<f32> {
+    let (w, h) = mask.size();
+    let (mut top, mut bottom, mut left, mut right) = (h, 0, w, 0);
+    for y in 0..h {
+        for x in 0..w {
+            if mask.get(x, y) {
+                (top, bottom, left, right) = (top.min(y), bottom.max(y), left.min(x), right.max(x));
+            }
+        }
+    }
+    if top > bottom {
+        return vec![0.0; w * h];
+    }
+    let size = (bottom - top).max(right - left) as f32 + 1.0;
+    let inside = Image::from_fn(w, h, 1, |x, y, p| p[0] = mask.get(x, y) as u8 as f32);
+    let depth = gaussian_blur(&inside, (0.05 * size).max(1.0));
+    let span = (bottom - top).max(1) as f32;
+    (0..w * h)
+        .map(|i| {
+            let rim = (2.0 * (1.0 - depth.data()[i])).clamp(0.0, 1.0);
+            let low = ((i / w) as f32 - top as f32).max(0.0) / span;
+            rim + 0.6 * low
+        })
+        .collect()
 }
 
 /// Algorithm 1: the initial degree map of a `mask`.

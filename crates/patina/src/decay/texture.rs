@@ -220,8 +220,7 @@ impl Generator {
 /// Rust: domain-warped layers (the swirls of corroded_rust_swirls) mapped
 /// through an oxide palette (no contour lines: reviewers read them as banding), a flaky dark
 /// crust, bright granular blooms and pixel grain; onset lowest in the
-/// deepest corrosion, ragged at small scale, with satellite pits that
-/// appear one by one over the frames and widen.
+/// deepest corrosion, ragged at small scale.
 fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let field = g.layer(0).warped(x, y, 80.0 * s, 6, 55.0 * s);
@@ -242,19 +241,7 @@ fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let patches = g.layer(5).fbm(x, y, 70.0 * s, 4, 0.5);
     let ragged = g.layer(7).fbm(x, y, 2.5, 2, 0.5);
     let onset = 0.42 - 0.55 * patches + 0.12 * fine + 0.08 * ragged - 0.1 * crust;
-    // Satellite pits: in 40% of the cells of a 22 px lattice a pit starts
-    // at a degree of its own (0.01-0.13: the degree that diffusion carries
-    // ahead of the patches) and widens by 5 px as the degree rises 0.1
-    // past it, so new spots keep appearing ahead of the patches and grow,
-    // instead of every site being there from frame 1.
-    let pit = g.layer(10).worley(x, y, 22.0 * s);
-    let start = 0.01 + 0.12 * (pit.id * 7.31).fract();
-    let reach = (pit.f1 + 3.0 * fine).max(0.0);
-    // Each no wider than its own 2-6 px: wider, the pits filled their
-    // lattice cells as shards; all of one size, they read as polka dots.
-    let widest = 2.0 + 4.0 * (pit.id * 13.7).fract();
-    let pit_onset = if pit.id < 0.4 && reach < widest { start + 0.1 * reach / 5.0 } else { 1.0 };
-    [c[0], c[1], c[2], onset.min(pit_onset).clamp(0.02, 0.95)]
+    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
 }
 
 /// Peeling paint: the paint comes off in patches whose borders are made
