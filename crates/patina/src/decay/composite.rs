@@ -80,9 +80,9 @@ impl Transition {
             StainField { transition: *self, width, source: vec![0; width * height], density: vec![0.0; width * height], streaks: Vec::new() };
         if self.drip > 0.0 {
             // Streaks: noise stretched 6:1 down the image (10 px across, 60
-            // px along), so the runoff parts into rivulets.
-            // A broader field gathers them into runs and dry gaps, so they are
-            // not spaced like the teeth of a comb.
+            // px along), so the runoff parts into rivulets; a broader field
+            // gathers them into runs and dry gaps, so they are not spaced
+            // like the teeth of a comb.
             let (streak, runs) = (Layer::new(seed, 953), Layer::new(seed, 954));
             field.streaks = vec![0.0; width * height];
             field.streaks.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
@@ -111,6 +111,7 @@ impl Transition {
 /// A [`Transition`] laid out over one photo ([`Transition::field`]).
 pub struct StainField {
     transition: Transition,
+    /// The photo's width (the runoff runs down its columns).
     width: usize,
     /// Per pixel, the pixel whose blurred weight it reads: shifted by the
     /// offset and displaced by up to one width with coordinate noise (so
@@ -130,7 +131,7 @@ impl StainField {
     /// pixels), faded in over the first 0.01 of D (none where D = 0).
     /// With a drip, the rim is at least the runoff from above: the
     /// unwarped rim carried down each column, fading by e every `drip`
-    /// pixels, times the streaks and 0.8.
+    /// pixels, times the streaks.
     pub fn weights(&self, w: &Image, degree: &Image) -> Vec<f32> {
         let t = &self.transition;
         let near = coarse_blur(w, t.width);
