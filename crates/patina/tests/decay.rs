@@ -297,6 +297,22 @@ fn stain_change(class: DecayClass, transition: Transition, degree: &Image) -> Im
     Image::from_fn(W, H, 1, |x, y, p| p[0] = (0..3).map(|c| (out.at(x, y, c) - lab_in.at(x, y, c)).powi(2)).sum::<f32>().sqrt())
 }
 
+/// The share of the initial degree map's decayed pixels (D > 0) that lie
+/// in `region`, over seeds 0-3.
+fn initial_share(input: &Image, mask: &Mask, class: DecayClass, region: impl Fn(usize, usize) -> bool) -> f32 {
+    let (mut there, mut all) = (0usize, 0usize);
+    for seed in 0..4 {
+        let prep = decay::prepare(input, Inputs { mask: Some(mask), ..Default::default() }, &DecayParams::new(class), seed).unwrap();
+        for (i, &d) in prep.degree.data().iter().enumerate() {
+            if d > 0.0 {
+                all += 1;
+                there += usize::from(region(i % W, i / W));
+            }
+        }
+    }
+    there as f32 / all.max(1) as f32
+}
+
 #[test]
 fn moss_starts_in_the_shade_and_cracks_anywhere() {
     // A plate whose left half is in shade (a third of the light), with
@@ -306,19 +322,7 @@ fn moss_starts_in_the_shade_and_cracks_anywhere() {
         p.fill(linear_to_srgb(light * (1.0 + 0.1 * (value_noise(3, x as f32 / 2.0, y as f32 / 2.0) - 0.5))));
     });
     let mask = Mask::filled(W, H, true);
-    let shade_share = |class: DecayClass| {
-        let (mut left, mut all) = (0usize, 0usize);
-        for seed in 0..4 {
-            let prep = decay::prepare(&input, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(class), seed).unwrap();
-            for (i, &d) in prep.degree.data().iter().enumerate() {
-                if d > 0.0 {
-                    all += 1;
-                    left += usize::from(i % W < W / 2);
-                }
-            }
-        }
-        left as f32 / all.max(1) as f32
-    };
+    let shade_share = |class: DecayClass| initial_share(&input, &mask, class, |x, _| x < W / 2);
     let (moss, cracks) = (shade_share(DecayClass::Mossy), shade_share(DecayClass::Cracked));
     assert!(moss > 0.7, "moss should start in the shaded half: {moss:.2} of it there");
     assert!((0.25..0.75).contains(&cracks), "cracks have no side: {cracks:.2} in the shade");
@@ -332,21 +336,9 @@ fn rust_starts_where_water_stands_at_the_rims_and_low_down() {
     // have no preference.
     let mask = object();
     let input = Image::from_fn(W, H, 3, |x, y, p| p.fill(if mask.get(x, y) { 0.6 } else { 0.3 }));
-    let wet = |x: usize, y: usize| x < 40 || x >= 120 || y < 22 || y >= 106 || y >= 81;
+    let wet = |x: usize, y: usize| x < 40 || x >= 120 || y < 22 || y >= 81;
     let area = (0..W * H).filter(|&i| mask.bits()[i] && wet(i % W, i / W)).count() as f32 / mask.count() as f32;
-    let pull = |class: DecayClass| {
-        let (mut there, mut all) = (0usize, 0usize);
-        for seed in 0..4 {
-            let prep = decay::prepare(&input, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(class), seed).unwrap();
-            for (i, &d) in prep.degree.data().iter().enumerate() {
-                if d > 0.0 {
-                    all += 1;
-                    there += usize::from(wet(i % W, i / W));
-                }
-            }
-        }
-        there as f32 / all.max(1) as f32 / area
-    };
+    let pull = |class: DecayClass| initial_share(&input, &mask, class, wet) / area;
     let (rust, cracks) = (pull(DecayClass::Rust), pull(DecayClass::Cracked));
     assert!(rust > 1.25, "rust should gather at the rims and bottom: {rust:.2}x their share");
     assert!((0.75..1.2).contains(&cracks), "cracks have no place: {cracks:.2}x");
