@@ -401,9 +401,7 @@ fn fineness(lum: &Image, keep: impl Fn(usize) -> bool) -> f32 {
 /// A procedural texture is pixel-sharp, and on a soft or slightly
 /// defocused photo its grain read as pasted on.
 pub fn focus_blur(photo: &Image, mask: &Mask, texture: &Image) -> f32 {
-    let (w, h) = photo.size();
-    let inside = Image::from_fn(w, h, 1, |x, y, p| p[0] = mask.get(x, y) as u8 as f32);
-    let deep = gaussian_blur(&inside, 3.0);
+    let deep = gaussian_blur(&mask.to_image(), 3.0);
     let deep: Vec<bool> = deep.data().iter().map(|&v| v > 0.999).collect();
     if deep.iter().filter(|&&d| d).count() < 1024 {
         return 0.0;
@@ -442,9 +440,7 @@ pub fn edge_coverage(mask: &Mask) -> Option<Image> {
     if mask.count() == mask.width() * mask.height() {
         return None;
     }
-    let (w, h) = mask.size();
-    let inside = Image::from_fn(w, h, 1, |x, y, p| p[0] = mask.get(x, y) as u8 as f32);
-    let mut soft = gaussian_blur(&inside, 0.8);
+    let mut soft = gaussian_blur(&mask.to_image(), 0.8);
     soft.data_mut().iter_mut().zip(mask.bits()).for_each(|(v, &m)| *v = if m { smoothstep(0.5, 0.85, *v) } else { 0.0 });
     Some(soft)
 }

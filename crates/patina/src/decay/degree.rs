@@ -5,7 +5,7 @@ use super::texture::DecayClass;
 use crate::image::filter::gaussian_blur;
 use crate::image::noise::{smoothstep, Layer};
 use crate::image::resample::{resize, Filter};
-use crate::image::{Image, Mask};
+use crate::image::{pixel_bounds, Image, Mask};
 use crate::rng::{self, Rng};
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -81,20 +81,11 @@ fn standardised(values: &[f32], mask: &Mask) -> Vec<f32> {
 /// and only the bottom term.
 fn wet_places(mask: &Mask) -> Vec<f32> {
     let (w, h) = mask.size();
-    let (mut top, mut bottom, mut left, mut right) = (h, 0, w, 0);
-    for y in 0..h {
-        for x in 0..w {
-            if mask.get(x, y) {
-                (top, bottom, left, right) = (top.min(y), bottom.max(y), left.min(x), right.max(x));
-            }
-        }
-    }
-    if top > bottom {
+    let Some((left, top, right, bottom)) = pixel_bounds(mask.bits().iter().enumerate().filter(|(_, &m)| m).map(|(i, _)| i), w) else {
         return vec![0.0; w * h];
-    }
+    };
     let size = (bottom - top).max(right - left) as f32 + 1.0;
-    let inside = Image::from_fn(w, h, 1, |x, y, p| p[0] = mask.get(x, y) as u8 as f32);
-    let depth = gaussian_blur(&inside, (0.05 * size).max(1.0));
+    let depth = gaussian_blur(&mask.to_image(), (0.05 * size).max(1.0));
     let span = (bottom - top).max(1) as f32;
     (0..w * h)
         .map(|i| {
