@@ -144,9 +144,9 @@ pub struct TransferArgs {
     /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
     #[arg(long)]
     pub overwrite: bool,
-    /// Weight of the equalised-luminance guides.
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
-    pub guide_weight: f32,
+    /// Weight of the equalised-luminance guides (the material's at t0 against the target's) [default: 0 for grow, whose timing follows the target's crevices instead and whose spots a guide matched to the target's light made flat and blotchy; 2 for the other modes].
+    #[arg(long, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
+    pub guide_weight: Option<f32>,
     /// How the material's change lands on the target. grow: the material covers the target texel by texel in its own
     /// spatial pattern, at the source's pace (the share covered over time is the source's), spots growing from their
     /// middle out and starting in the target's crevices and chips. ratio: the change scaled by target / material
@@ -374,6 +374,7 @@ fn run_enlarge(args: EnlargeArgs) -> Result<()> {
         },
         blend_seams: !args.no_seam_blend,
         tileable: args.tile,
+        verbatim: false,
         optimize: OptimizeParams::default(),
     };
     let enlarged = with_bar("enlarge", |report| {
@@ -435,7 +436,8 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
         ModeArg::Offset => transfer::Mode::Offset,
         ModeArg::Auto => transfer::Mode::Auto,
     };
-    let params = transfer::TransferParams { t0: args.t0, guide_weight: args.guide_weight, mode, ..Default::default() };
+    let guide_weight = args.guide_weight.unwrap_or(if mode == transfer::Mode::Grow { 0.0 } else { 2.0 });
+    let params = transfer::TransferParams { t0: args.t0, guide_weight, mode, ..Default::default() };
     let moved = with_bar("transfer", |report| transfer::transfer(&material, &target, mask.as_ref(), &params, args.seed, Some(report)))?;
     let mut manifest = Manifest::new("stbrdf transfer", args.seed);
     manifest.timings_ms.insert("transfer".into(), clock.lap());

@@ -257,7 +257,17 @@ fn plain(photo: &Image, photo_lab: &Image, texture_lab: &Image, onset: &Image, s
     composite(
         photo,
         photo_lab,
-        &Layers { texture_lab, onset, shading, stain: None, young: 0.6, relief: Relief::FLAT, light: [0.0, -1.0], coverage: None, focus: 0.0 },
+        &Layers {
+            texture_lab,
+            onset,
+            shading,
+            stain: None,
+            young: 0.6,
+            relief: Relief::FLAT,
+            light: [0.0, -1.0],
+            coverage: None,
+            focus: 0.0,
+        },
         degree,
     )
 }

@@ -76,8 +76,13 @@ impl Transition {
         let [dx, dy] = self.offset;
         let (warp_x, warp_y, density) = (Layer::new(seed, 950), Layer::new(seed, 951), Layer::new(seed, 952));
         let scale = 2.0 * self.width.max(1.0);
-        let mut field =
-            StainField { transition: *self, width, source: vec![0; width * height], density: vec![0.0; width * height], streaks: Vec::new() };
+        let mut field = StainField {
+            transition: *self,
+            width,
+            source: vec![0; width * height],
+            density: vec![0.0; width * height],
+            streaks: Vec::new(),
+        };
         if self.drip > 0.0 {
             // Streaks: noise stretched 6:1 down the image (10 px across, 60
             // px along), so the runoff parts into rivulets; a broader field

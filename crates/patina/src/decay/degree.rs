@@ -61,7 +61,8 @@ pub fn affinity(class: DecayClass, form: &Image, relief: &Image, mask: &Mask) ->
     }
     // Rust's places are the stronger pull: its z-score is not halved.
     let gain = if class == DecayClass::Rust { 1.0 } else { 0.5 };
-    let data = standardised(&values, mask).into_iter().zip(mask.bits()).map(|(z, &m)| if m { (gain * z).clamp(-1.0, 1.0) } else { 0.0 }).collect();
+    let data =
+        standardised(&values, mask).into_iter().zip(mask.bits()).map(|(z, &m)| if m { (gain * z).clamp(-1.0, 1.0) } else { 0.0 }).collect();
     Some(Image::from_data(mask.width(), mask.height(), 1, data).expect("one value per pixel"))
 }
 

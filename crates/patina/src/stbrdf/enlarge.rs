@@ -100,6 +100,11 @@ pub struct EnlargeParams {
     /// wrap, so tileable runs skip it; lighting can be flat or kept, not
     /// stretched.
     pub tileable: bool,
+    /// Inside coherent copies, each texel becomes its match's own
+    /// coefficients instead of the vote's average
+    /// ([`crate::synth::Synthesized::coherent_copies`]): the source's
+    /// texel-scale texture is kept where the vote would smooth it.
+    pub verbatim: bool,
     pub optimize: OptimizeParams,
 }
 
@@ -110,6 +115,7 @@ impl Default for EnlargeParams {
             illumination: Illumination::Auto,
             blend_seams: true,
             tileable: false,
+            verbatim: false,
             optimize: OptimizeParams::default(),
         }
     }
@@ -201,7 +207,10 @@ pub fn enlarge(
     if let Some(p) = progress {
         problem = problem.progress(p);
     }
-    let synthesized = problem.optimize(&params.optimize)?;
+    let mut synthesized = problem.optimize(&params.optimize)?;
+    if params.verbatim {
+        synthesized.coherent_copies(&coefficients, &crate::image::Mask::from_fn(width, height, |_, _| true));
+    }
     // Guided synthesis places content by the guide, not in blocks: nearly
     // every neighbour pair is a "seam", and blending would integrate the
     // source's gradients back into its own layout (a ramp re-imposed).

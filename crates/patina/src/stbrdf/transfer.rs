@@ -107,7 +107,12 @@ pub enum Mode {
 pub struct TransferParams {
     /// The time at which the result equals the target.
     pub t0: f32,
-    /// Weight of the equalised-luminance guides.
+    /// Weight of the equalised-luminance guides (0 = unguided). Grow mode
+    /// runs unguided by default: the target's structure enters through its
+    /// timing ([`exposure`]), and a guide matching the material at t0 (bare,
+    /// even steel) to the target's light and shade forced the synthesis onto
+    /// a few smooth patches, so spots came out flat, blotchy and too few
+    /// (review).
     pub guide_weight: f32,
     pub mode: Mode,
     pub optimize: OptimizeParams,
@@ -115,7 +120,7 @@ pub struct TransferParams {
 
 impl Default for TransferParams {
     fn default() -> Self {
-        TransferParams { t0: 0.0, guide_weight: 2.0, mode: Mode::Grow, optimize: OptimizeParams::default() }
+        TransferParams { t0: 0.0, guide_weight: 0.0, mode: Mode::Grow, optimize: OptimizeParams::default() }
     }
 }
 
@@ -159,13 +164,16 @@ pub fn transfer(
             )));
         }
     }
-    let source_guide = equalize(&luminance(&material.evaluate(t0).select_channels(kd.clone())));
-    let target_guide = equalize(&luminance(&target.select_channels(0..3)));
+    let guides = (guide_weight > 0.0).then(|| {
+        let source_guide = equalize(&luminance(&material.evaluate(t0).select_channels(kd.clone())));
+        let target_guide = equalize(&luminance(&target.select_channels(0..3)));
+        (source_guide, target_guide)
+    });
     let synthesized = enlarge(
         material,
         target.size(),
-        &EnlargeParams { optimize: params.optimize.clone(), ..EnlargeParams::default() },
-        Some((&source_guide, &target_guide, guide_weight)),
+        &EnlargeParams { optimize: params.optimize.clone(), verbatim: params.mode == Mode::Grow, ..EnlargeParams::default() },
+        guides.as_ref().map(|(s, t)| (s, t, guide_weight)),
         seed,
         progress,
     )?;
@@ -175,7 +183,7 @@ pub fn transfer(
         chosen => chosen,
     };
     let (degree, coefficients) = match mode {
-        Mode::Grow => grow(&synthesized, target, mask, kd.clone(), t0, &Pace::of(material, kd, t0))?,
+        Mode::Grow => grow(&synthesized, target, mask, kd.clone(), t0, &Pace::of(material, kd, t0), seed)?,
         _ => (material.degree, scaled(&synthesized, target, kd, t0, mode)),
     };
     let mut out = Material::new(degree, material.params.clone(), coefficients)?;
@@ -335,10 +343,6 @@ struct Pace {
     /// The mean Diffuse at t_D of those texels: what the material becomes
     /// where a texel of the result has too little change of its own.
     colour: [f32; 3],
-    /// The mean Diffuse at t_D of the source's other texels: what a spot
-    /// is mixed with where texture optimization averaged it with its
-    /// surroundings (rusting steel's khaki background).
-    background: [f32; 3],
     /// The median strength (|D| / top) of the texels that take the change on.
     strength: f32,
     top: f32,
@@ -355,18 +359,15 @@ impl Pace {
         let n = arriving.len().max(1) as f32;
         let colour = std::array::from_fn(|c| arriving.iter().map(|&i| end.data()[3 * i + c]).sum::<f32>() / n);
         let total = timing.size.len();
-        let rest = (total - arriving.len()).max(1) as f32;
-        let background =
-            std::array::from_fn(|c| ((0..total).map(|i| end.data()[3 * i + c]).sum::<f32>() - colour[c] * arriving.len() as f32) / rest);
         let strengths: Vec<f32> = arriving.iter().map(|&i| timing.size[i] / top).collect();
         let strength = if strengths.is_empty() { 1.0 } else { quantile(&strengths, 0.5) };
-        Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, background, strength, top }
+        Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, strength, top }
     }
 }
 
 /// How far ahead of its rank (a share of the object's texels) the most
 /// exposed texel ([`exposure`]) arrives, and is chosen to arrive at all.
-const EXPOSURE_LEAD: f32 = 0.25;
+const EXPOSURE_LEAD: f32 = 1.0;
 
 /// Each texel's arrival time on the target, from the source's pace:
 /// - which texels take on the material: the source's share of them (over
@@ -432,27 +433,45 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, pace: &Pace) -
 const GROW_FROM_MIDDLE: f32 = 0.5;
 const GROW_DEPTH: f32 = 6.0;
 
-/// Lowest share of a spot in a texel's end state that [`end_state`] un-mixes.
-const MIN_SPOT_SHARE: f32 = 0.4;
+/// What texel `i` becomes at t_D over the target, as a colour and its
+/// opacity, from its own end state `end` (channel `c`) and its exposure
+/// `e`: the material covers the target as much as the texel holds of a
+/// spot, its strength s = |D| / top over the source's median arriving
+/// strength s_m (texture optimization and the source's own rims mix spots
+/// with bare surface; a rim is part rust, so the target shows through it as
+/// a bleed of the rust's colour into the paint), and at least as much as
+/// the target is exposed there (a crevice the pace chose takes the
+/// material's mean end state, [`Pace::colour`]). Earlier versions drew
+/// every chosen texel opaque: weak ones un-mixed from the source's
+/// background (which amplified the rims' hue into olive) or filled with the
+/// mean (flat, camouflage-like blotches, review).
+fn end_state(timing: &Timing, pace: &Pace, i: usize, c: usize, end: f32, e: f32) -> (f32, f32) {
+    let own = (timing.size[i] / pace.top / pace.strength).min(1.0);
+    let opacity = own.max(e.min(1.0));
+    if opacity <= 0.0 {
+        return (end, 0.0);
+    }
+    ((own * end + (opacity - own) * pace.colour[c]) / opacity, opacity)
+}
 
-/// What texel `i` becomes, from its own end state `end` (channel `c`):
-/// - texture optimization averages spots with their surroundings, so a
-///   texel of strength s below the source's median arriving strength s_m
-///   is taken as a mix of a spot (share a = s / s_m, at least
-///   [`MIN_SPOT_SHARE`]) and the source's background end state B, and the
-///   spot is un-mixed: (end - (1 - a) B) / a. Kept as they were, these
-///   texels drew a pale khaki outline round every spot;
-/// - below [`GROW_CUT`] of the full change (texels the pace chose with too
-///   little change of their own), blended towards the material's mean end
-///   state ([`Pace::colour`]). Scaling weak changes up to the full one
-///   turned every spot the darkest rust's near-black, and adding the mean
-///   change to a texel already dark at t0 went below zero (saturated maroon).
-fn end_state(timing: &Timing, pace: &Pace, i: usize, c: usize, end: f32) -> f32 {
-    let s = timing.size[i] / pace.top;
-    let a = (s / pace.strength).clamp(MIN_SPOT_SHARE, 1.0);
-    let spot = ((end - (1.0 - a) * pace.background[c]) / a).clamp(0.0, 1.0);
-    let own = (s / GROW_CUT).min(1.0);
-    own * spot + (1.0 - own) * pace.colour[c]
+/// Spread of the arrival times' per-texel dither, in units of the front's
+/// half-width [`GROW_FRONT`].
+const ARRIVAL_DITHER: f32 = 1.5;
+/// Grain size (px) of that dither.
+const DITHER_SCALE: f32 = 2.5;
+
+/// Per-texel dither of the arrivals (those that arrive, <= 1), uniform in
+/// +-[`ARRIVAL_DITHER`] [`GROW_FRONT`]: a front the polynomial can only
+/// follow as a ramp of 2 GROW_FRONT in time shows as a grain of texels
+/// partly arrived, not as a soft translucent blur over a whole blotch.
+fn dither(arrivals: &mut [f32], width: usize, seed: u64) {
+    let layer = crate::image::noise::Layer::new(seed, 0x57b0);
+    for (i, a) in arrivals.iter_mut().enumerate() {
+        if *a <= 1.0 {
+            let u = layer.fbm((i % width) as f32, (i / width) as f32, DITHER_SCALE, 2, 0.5);
+            *a += u.clamp(-1.0, 1.0) * ARRIVAL_DITHER * GROW_FRONT;
+        }
+    }
 }
 
 /// [`Mode::Grow`] (module docs): per texel, the cover c(t) from its arrival
@@ -467,6 +486,7 @@ fn grow(
     kd: std::ops::Range<usize>,
     t0: f32,
     pace: &Pace,
+    seed: u64,
 ) -> Result<(usize, Image)> {
     let m = material.degree + 1;
     let out_degree = material.degree.max(GROW_DEGREE);
@@ -477,7 +497,9 @@ fn grow(
     let channels = material.channels();
     let timing = Timing::of(material, kd.clone(), t0);
     let end_at = timing.end_at;
-    let arrivals = paced(&timing, &exposure(target, mask), mask, pace);
+    let exposed = exposure(target, mask);
+    let mut arrivals = paced(&timing, &exposed, mask, pace);
+    dither(&mut arrivals, target.width(), seed);
     // The cover: 0 up to t0, then a smoothstep of half-width GROW_FRONT
     // around the arrival, which is never before GROW_FRONT (nothing has
     // arrived at t0 itself) and, for texels that arrive, never after
@@ -515,7 +537,8 @@ fn grow(
                     let diffuse = kd.contains(&c);
                     let base = if diffuse { want[c - kd.start] } else { evaluate(poly, t0) };
                     let arrived = if diffuse {
-                        shading * end_state(&timing, pace, i, c - kd.start, evaluate(poly, end_at))
+                        let (colour, opacity) = end_state(&timing, pace, i, c - kd.start, evaluate(poly, end_at), exposed.data()[i]);
+                        base + opacity * (shading * colour - base)
                     } else {
                         evaluate(poly, end_at)
                     };
