@@ -37,14 +37,20 @@
 //!     arrival, brought forward by the target's exposure ([`exposure`]:
 //!     crevices, chips and bolt shadows darker than their surroundings,
 //!     and the object's rim), so rust takes hold there first.
-//!   - out(x, t) = target(x) + c(x, t) (S(x) p'(x, t_D) - target(x)):
+//!   - out(x, t) = target(x) + c(x, t) o(x) (S(x) p'(x, t_D) - target(x)):
 //!     what the material becomes there (rust, not the bare steel it was
-//!     before it rusted), its own end state p(x, t_D) where its change is
-//!     strong, blended towards the material's mean end state where it is
-//!     weak, and un-mixed from the background where the synthesis averaged
-//!     a spot with it ([`end_state`]); S is the target's luminance over its median
+//!     before it rusted), its own end state p(x, t_D), over the target
+//!     with the opacity o(x) of the share of a spot the texel holds, rims
+//!     taking the material's hue and the darkest lifted ([`end_state`]);
+//!     S is the target's luminance over its median
 //!     (its shading, so the arriving material is lit like the object), at
 //!     the scale of its form ([`SHADING_SIGMA`]) and limited ([`SHADING_RANGE`]).
+//!   - The arrivals are dithered by fine noise ([`dither`]), so a passing
+//!     front is a grain, not a translucent blur.
+//!   - The synthesis runs unguided by default
+//!     ([`TransferParams::guide_weight`]) and keeps the source's own
+//!     coefficients inside coherent copies ([`EnlargeParams::verbatim`]),
+//!     so the spots keep the material's shapes and inner texture.
 //!   - The result is refitted per texel by least squares, with the
 //!     polynomial pinned to the target at t0 ([`Fitter::anchored`]), at
 //!     degree 6 at least ([`GROW_DEGREE`]); the front's width w is what a
@@ -445,14 +451,35 @@ const GROW_DEPTH: f32 = 6.0;
 /// every chosen texel opaque: weak ones un-mixed from the source's
 /// background (which amplified the rims' hue into olive) or filled with the
 /// mean (flat, camouflage-like blotches, review).
-fn end_state(timing: &Timing, pace: &Pace, i: usize, c: usize, end: f32, e: f32) -> (f32, f32) {
+///
+/// The darkest of the material's end states are its polynomials' ends
+/// (where a fit is least sure); under the target's shade they went
+/// near-black and hue-less (review: "black pits", a blue-grey cast). A
+/// colour darker than [`DARKEST`] of the mean end state's luminance is
+/// lifted to it by adding the mean end state's own hue.
+fn end_state(timing: &Timing, pace: &Pace, i: usize, end: [f32; 3], e: f32) -> ([f32; 3], f32) {
     let own = (timing.size[i] / pace.top / pace.strength).min(1.0);
     let opacity = own.max(e.min(1.0));
     if opacity <= 0.0 {
         return (end, 0.0);
     }
-    ((own * end + (opacity - own) * pace.colour[c]) / opacity, opacity)
+    let light = |v: [f32; 3]| 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
+    let mean = light(pace.colour).max(1e-3);
+    let tint = light(end) / mean;
+    let rim: [f32; 3] = std::array::from_fn(|c| own * end[c] + (1.0 - own) * tint * pace.colour[c]);
+    let mut colour: [f32; 3] = std::array::from_fn(|c| (own * rim[c] + (opacity - own) * pace.colour[c]) / opacity);
+    let l = light(colour);
+    if l < DARKEST * mean {
+        let lift = (DARKEST * mean - l) / mean;
+        colour.iter_mut().zip(pace.colour).for_each(|(v, m)| *v += lift * m);
+    }
+    (colour, opacity)
 }
+
+/// The darkest luminance [`end_state`] gives, relative to the material's
+/// mean end state ([`Pace::colour`]): rusting steel's darkest frame pixels
+/// are about 0.7 of its mean rust's.
+const DARKEST: f32 = 0.7;
 
 /// Spread of the arrival times' per-texel dither, in units of the front's
 /// half-width [`GROW_FRONT`].
@@ -532,16 +559,13 @@ fn grow(
             |(cover, q), (i, (((o, a), want), &l))| {
                 let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1);
                 cover_of(arrivals[i], cover);
+                let end: [f32; 3] = std::array::from_fn(|k| evaluate(&a[(kd.start + k) * m..(kd.start + k + 1) * m], end_at));
+                let (colour, opacity) = end_state(&timing, pace, i, end, exposed.data()[i]);
                 for c in 0..channels {
                     let poly = &a[c * m..(c + 1) * m];
                     let diffuse = kd.contains(&c);
                     let base = if diffuse { want[c - kd.start] } else { evaluate(poly, t0) };
-                    let arrived = if diffuse {
-                        let (colour, opacity) = end_state(&timing, pace, i, c - kd.start, evaluate(poly, end_at), exposed.data()[i]);
-                        base + opacity * (shading * colour - base)
-                    } else {
-                        evaluate(poly, end_at)
-                    };
+                    let arrived = if diffuse { base + opacity * (shading * colour[c - kd.start] - base) } else { evaluate(poly, end_at) };
                     for (qk, &ck) in q.iter_mut().zip(cover.iter()) {
                         *qk = ck * (arrived - base);
                     }
@@ -646,6 +670,27 @@ fn keep_outside(material: &mut Material, target: &Image, mask: &Image, t0: f32) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A black, hue-less end state (a polynomial's end undershooting) comes
+    /// out rust-hued at [`DARKEST`] of the mean rust's luminance; a rim
+    /// texel's steel grey takes the rust's hue; a strong texel of ordinary
+    /// brightness keeps its own colour.
+    #[test]
+    fn the_arriving_rust_is_never_black_and_its_rims_are_not_grey() {
+        let timing = Timing { size: vec![1.0, 0.4, 1.0], onset: vec![0.5; 3], end_at: 1.0 };
+        let pace = Pace { arrivals: vec![0.5], share: 0.5, colour: [0.3, 0.16, 0.07], strength: 1.0, top: 1.0 };
+        let light = |v: [f32; 3]| 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
+        let (black, opacity) = end_state(&timing, &pace, 0, [0.01, 0.01, 0.02], 0.0);
+        assert_eq!(opacity, 1.0);
+        assert!(light(black) >= DARKEST * light(pace.colour) - 1e-4, "{black:?}");
+        assert!(black[0] > 2.0 * black[2], "rust-hued, not blue-grey: {black:?}");
+        let grey = [0.5, 0.5, 0.52];
+        let (rim, opacity) = end_state(&timing, &pace, 1, grey, 0.0);
+        assert!((opacity - 0.4).abs() < 1e-5, "a rim is part rust: {opacity}");
+        assert!(rim[0] > 1.3 * rim[2], "its colour leans to the rust's hue: {rim:?}");
+        let brown = [0.45, 0.25, 0.12];
+        assert_eq!(end_state(&timing, &pace, 2, brown, 0.0), (brown, 1.0));
+    }
     use crate::stbrdf::fit::fit;
     use crate::stbrdf::procedural::{drying_wood, drying_wood_params};
 
