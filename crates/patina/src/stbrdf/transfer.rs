@@ -440,7 +440,7 @@ const GROW_FROM_MIDDLE: f32 = 0.5;
 const GROW_DEPTH: f32 = 6.0;
 
 /// What texel `i` becomes at t_D over the target, as a colour and its
-/// opacity, from its own end state `end` (RGB) and its exposure
+/// opacity, from its own end state `end` (channel `c`) and its exposure
 /// `e`: the material covers the target as much as the texel holds of a
 /// spot, its strength s = |D| / top over the source's median arriving
 /// strength s_m (texture optimization and the source's own rims mix spots
@@ -451,12 +451,6 @@ const GROW_DEPTH: f32 = 6.0;
 /// every chosen texel opaque: weak ones un-mixed from the source's
 /// background (which amplified the rims' hue into olive) or filled with the
 /// mean (flat, camouflage-like blotches, review).
-///
-/// A rim texel's own colour is part bare surface (rusting steel's grey),
-/// so it keeps only the square of its spot share of it; the rest is the
-/// mean end state's hue at the texel's own luminance, never brighter than
-/// that mean (a grey rim showed as a grey feather, a brighter one as a
-/// washed-out ring: review).
 ///
 /// The darkest of the material's end states are its polynomials' ends
 /// (where a fit is least sure); under the target's shade they went
@@ -471,9 +465,8 @@ fn end_state(timing: &Timing, pace: &Pace, i: usize, end: [f32; 3], e: f32) -> (
     }
     let light = |v: [f32; 3]| 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
     let mean = light(pace.colour).max(1e-3);
-    let tint = (light(end) / mean).min(1.0);
-    let pure = own * own;
-    let rim: [f32; 3] = std::array::from_fn(|c| pure * end[c] + (1.0 - pure) * tint * pace.colour[c]);
+    let tint = light(end) / mean;
+    let rim: [f32; 3] = std::array::from_fn(|c| own * end[c] + (1.0 - own) * tint * pace.colour[c]);
     let mut colour: [f32; 3] = std::array::from_fn(|c| (own * rim[c] + (opacity - own) * pace.colour[c]) / opacity);
     let l = light(colour);
     if l < DARKEST * mean {
@@ -487,45 +480,6 @@ fn end_state(timing: &Timing, pace: &Pace, i: usize, end: [f32; 3], e: f32) -> (
 /// mean end state ([`Pace::colour`]): rusting steel's darkest frame pixels
 /// are about 0.7 of its mean rust's.
 const DARKEST: f32 = 0.7;
-
-/// Opacity, before the coverage weight, of the texels just outside a spot
-/// that [`soft_edges`] brings in.
-const EDGE_OPACITY: f32 = 0.6;
-
-/// Anti-aliases the outline of the texels that take the material on (the
-/// pace chooses a hard set: one-pixel staircases round every spot, review):
-/// a texel outside it with chosen neighbours (3 x 3) arrives a little after
-/// them (half a front's width after their mean arrival) with the share of
-/// its neighbourhood that is chosen as its weight. Returns each texel's
-/// weight: 1 inside the set, that share on its outline, 0 elsewhere.
-fn soft_edges(arrivals: &mut [f32], width: usize) -> Vec<f32> {
-    let height = arrivals.len() / width.max(1);
-    let chosen: Vec<bool> = arrivals.iter().map(|&a| a <= 1.0).collect();
-    let mut weight: Vec<f32> = chosen.iter().map(|&c| if c { 1.0 } else { 0.0 }).collect();
-    for y in 0..height {
-        for x in 0..width {
-            let i = y * width + x;
-            if chosen[i] {
-                continue;
-            }
-            let (mut count, mut sum) = (0usize, 0f32);
-            for v in y.saturating_sub(1)..(y + 2).min(height) {
-                for u in x.saturating_sub(1)..(x + 2).min(width) {
-                    let j = v * width + u;
-                    if chosen[j] {
-                        count += 1;
-                        sum += arrivals[j];
-                    }
-                }
-            }
-            if count > 0 {
-                weight[i] = count as f32 / 9.0;
-                arrivals[i] = (sum / count as f32 + 0.5 * GROW_FRONT).min(1.0);
-            }
-        }
-    }
-    weight
-}
 
 /// Spread of the arrival times' per-texel dither, in units of the front's
 /// half-width [`GROW_FRONT`].
@@ -572,7 +526,6 @@ fn grow(
     let end_at = timing.end_at;
     let exposed = exposure(target, mask);
     let mut arrivals = paced(&timing, &exposed, mask, pace);
-    let edge = soft_edges(&mut arrivals, target.width());
     dither(&mut arrivals, target.width(), seed);
     // The cover: 0 up to t0, then a smoothstep of half-width GROW_FRONT
     // around the arrival, which is never before GROW_FRONT (nothing has
@@ -607,13 +560,7 @@ fn grow(
                 let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1);
                 cover_of(arrivals[i], cover);
                 let end: [f32; 3] = std::array::from_fn(|k| evaluate(&a[(kd.start + k) * m..(kd.start + k + 1) * m], end_at));
-                let (colour, opacity) = match edge[i] {
-                    w if w < 1.0 => {
-                        let (colour, opacity) = end_state(&timing, pace, i, end, exposed.data()[i].max(EDGE_OPACITY));
-                        (colour, w * opacity)
-                    }
-                    _ => end_state(&timing, pace, i, end, exposed.data()[i]),
-                };
+                let (colour, opacity) = end_state(&timing, pace, i, end, exposed.data()[i]);
                 for c in 0..channels {
                     let poly = &a[c * m..(c + 1) * m];
                     let diffuse = kd.contains(&c);
