@@ -399,6 +399,14 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, pace: &Pace) -
         return out;
     }
     let e = exposure.data();
+    // Nearness to exposed places, for the timing: the exposure spread over
+    // NEAR_SIGMA and scaled to 1 at its top percentile, so the spots beside
+    // a chip or seam arrive with it and rust grows out from there onto the
+    // open surface (with the exposure itself, the first three quarters of
+    // the time only darkened chips and seams already dark: review).
+    let spread = gaussian_blur(exposure, NEAR_SIGMA);
+    let peak = quantile(&on_object(spread.data(), mask), 0.99).max(1e-3);
+    let near: Vec<f32> = spread.data().iter().zip(e).map(|(v, e)| (v / peak).min(1.0).max(*e)).collect();
     let strength = |i: usize| (timing.size[i] / pace.top).min(1.0);
     let last = (pace.arrivals.len() - 1) as f32;
     let by = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
@@ -421,7 +429,7 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, pace: &Pace) -
             .enumerate()
             .map(|(r, &(_, i))| {
                 let shallow = 1.0 - (depth[i] / GROW_DEPTH).min(1.0);
-                ((1.0 - GROW_FROM_MIDDLE) * r as f32 / span + GROW_FROM_MIDDLE * shallow - EXPOSURE_LEAD * e[i], i)
+                ((1.0 - GROW_FROM_MIDDLE) * r as f32 / span + GROW_FROM_MIDDLE * shallow - NEAR_LEAD * near[i], i)
             })
             .collect();
         keyed.sort_by(by);
@@ -431,6 +439,12 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, pace: &Pace) -
     }
     out
 }
+
+/// Reach (sigma, px) of an exposed place's head start in time ([`paced`]).
+const NEAR_SIGMA: f32 = 6.0;
+/// How far ahead of its rank in time (a share of the chosen texels) a
+/// texel next to an exposed place arrives.
+const NEAR_LEAD: f32 = 0.5;
 
 /// How much a texel's depth inside the region that takes the material on
 /// decides its rank, against its own arrival: a blotch that arrives in
@@ -542,7 +556,17 @@ fn grow(
     // The target's shading, relative to its median luminance (over the
     // object), at the scale of its form: the paint's grain and gloss do
     // not show through the material.
-    let lum = gaussian_blur(&luminance(&target.select_channels(0..3)), SHADING_SIGMA);
+    let fine = luminance(&target.select_channels(0..3));
+    let lum = gaussian_blur(&fine, SHADING_SIGMA);
+    // The object's relief finer than that (bolt edges, lettering, seams),
+    // kept at [`RELIEF`] strength so it shows through the material: with
+    // the blurred shading alone, rust flattened the hardware (review).
+    let relief: Vec<f32> = fine
+        .data()
+        .iter()
+        .zip(lum.data())
+        .map(|(f, b)| (f.max(1e-3) / b.max(1e-3)).powf(RELIEF).clamp(RELIEF_RANGE.0, RELIEF_RANGE.1))
+        .collect();
     let lums = on_object(lum.data(), mask);
     let median = if lums.is_empty() { 1.0 } else { quantile(&lums, 0.5).max(1e-3) };
     let coefficients = &material.coefficients;
@@ -557,7 +581,7 @@ fn grow(
         .for_each_init(
             || (vec![0f32; samples], vec![0f32; samples]),
             |(cover, q), (i, (((o, a), want), &l))| {
-                let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1);
+                let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1) * relief[i];
                 cover_of(arrivals[i], cover);
                 let end: [f32; 3] = std::array::from_fn(|k| evaluate(&a[(kd.start + k) * m..(kd.start + k + 1) * m], end_at));
                 let (colour, opacity) = end_state(&timing, pace, i, end, exposed.data()[i]);
@@ -578,6 +602,12 @@ fn grow(
     Ok((out_degree, out))
 }
 
+/// Strength (an exponent) and limits of the target's fine relief over its
+/// shading that [`Mode::Grow`] keeps in the arriving material. At full
+/// strength it turned crevice rust near-black and showed the paint's gloss
+/// and grain through it (review).
+const RELIEF: f32 = 0.5;
+const RELIEF_RANGE: (f32, f32) = (0.75, 1.25);
 /// Scale (sigma, px) of the target's shading that lights the material.
 const SHADING_SIGMA: f32 = 2.0;
 /// Cavity contrast that counts as fully exposed: a texel this much darker
