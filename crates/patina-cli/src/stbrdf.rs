@@ -144,7 +144,7 @@ pub struct TransferArgs {
     /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
     #[arg(long)]
     pub overwrite: bool,
-    /// Weight of the equalised-luminance guides (the material's at t0 against the target's) [default: 0 for grow, whose timing follows the target's crevices instead and whose spots a guide matched to the target's light made flat and blotchy; 2 for the other modes].
+    /// Weight of the guides. grow with --mask: the material's density of change against where water stands on the object (its bottom, and its rims less), so the densest rust gathers there [default: 0.1]; grow without a mask is unguided. ratio, offset, auto: the material's equalised luminance at t0 against the target's [default: 2].
     #[arg(long, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub guide_weight: Option<f32>,
     /// How the material's change lands on the target. grow: the material covers the target texel by texel in its own
@@ -436,8 +436,7 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
         ModeArg::Offset => transfer::Mode::Offset,
         ModeArg::Auto => transfer::Mode::Auto,
     };
-    let guide_weight = args.guide_weight.unwrap_or(if mode == transfer::Mode::Grow { 0.0 } else { 2.0 });
-    let params = transfer::TransferParams { t0: args.t0, guide_weight, mode, ..Default::default() };
+    let params = transfer::TransferParams { t0: args.t0, guide_weight: args.guide_weight, mode, ..Default::default() };
     let moved = with_bar("transfer", |report| transfer::transfer(&material, &target, mask.as_ref(), &params, args.seed, Some(report)))?;
     let mut manifest = Manifest::new("stbrdf transfer", args.seed);
     manifest.timings_ms.insert("transfer".into(), clock.lap());
@@ -446,6 +445,7 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
     manifest.params["mode_used"] = json!(moved.mode);
     manifest.params["masked"] = json!(mask.is_some());
     manifest.params["feather"] = json!(args.feather);
+    manifest.params["guide_weight_used"] = json!(params.weight());
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;

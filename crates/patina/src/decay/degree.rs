@@ -5,7 +5,7 @@ use super::texture::DecayClass;
 use crate::image::filter::gaussian_blur;
 use crate::image::noise::{smoothstep, Layer};
 use crate::image::resample::{resize, Filter};
-use crate::image::{pixel_bounds, Image, Mask};
+use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -33,7 +33,7 @@ pub const AFFINITY: f32 = 0.3;
 /// relief), flakes lift at edges (strong relief either way); cracks have
 /// no preference (`None`). The map is the log light's z-score inside the
 /// mask, halved and held to [-1, 1]; 0 outside. Rust's adds where water
-/// stands ([`wet_places`]: the object's rims and its bottom) to half its
+/// stands ([`Mask::wet_places`]: the object's rims and its bottom) to half its
 /// crevice z-score before the z-score is taken, which is not halved: on a
 /// slab with no crevices, rust scattered evenly over the face like cow
 /// print.
@@ -56,7 +56,7 @@ pub fn affinity(class: DecayClass, form: &Image, relief: &Image, mask: &Mask) ->
         // Water stands and runs where rust starts: at the object's rims and
         // low down, as much as in its crevices.
         let crevice = standardised(&values, mask);
-        let wet = wet_places(mask);
+        let wet = mask.wet_places();
         values.iter_mut().zip(crevice).zip(wet).for_each(|((v, c), w)| *v = 0.5 * c + w);
     }
     // Rust's places are the stronger pull: its z-score is not halved.
@@ -73,28 +73,6 @@ fn standardised(values: &[f32], mask: &Mask) -> Vec<f32> {
     let mean = inside.iter().sum::<f64>() / n;
     let std = (inside.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-6);
     values.iter().map(|&v| ((v as f64 - mean) / std) as f32).collect()
-}
-
-/// Where water stands on an object, in [0, 1.6]: up to 1 near its
-/// outline (within about a twentieth of its size; the mask blurred at
-/// that width is a half at the outline and 1 deep inside) plus up to 0.6
-/// towards its bottom. A mask that covers the whole photo has no outline,
-/// and only the bottom term.
-fn wet_places(mask: &Mask) -> Vec<f32> {
-    let (w, h) = mask.size();
-    let Some((left, top, right, bottom)) = pixel_bounds(mask.bits().iter().enumerate().filter(|(_, &m)| m).map(|(i, _)| i), w) else {
-        return vec![0.0; w * h];
-    };
-    let size = (bottom - top).max(right - left) as f32 + 1.0;
-    let depth = gaussian_blur(&mask.to_image(), (0.05 * size).max(1.0));
-    let span = (bottom - top).max(1) as f32;
-    (0..w * h)
-        .map(|i| {
-            let rim = (2.0 * (1.0 - depth.data()[i])).clamp(0.0, 1.0);
-            let low = ((i / w) as f32 - top as f32).max(0.0) / span;
-            rim + 0.6 * low
-        })
-        .collect()
 }
 
 /// Algorithm 1: the initial degree map of a `mask`.

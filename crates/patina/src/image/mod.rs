@@ -265,6 +265,28 @@ impl Mask {
     pub fn count(&self) -> usize {
         self.bits.iter().filter(|&&b| b).count()
     }
+    /// Where water stands on an object, in [0, 1.6]: up to 1 near its
+    /// outline (within about a twentieth of its size; the mask blurred at
+    /// that width is a half at the outline and 1 deep inside) plus up to 0.6
+    /// towards its bottom. A mask that covers the whole photo has no outline,
+    /// and only the bottom term. Decay's rust and grown stbrdf transfer
+    /// start there.
+    pub fn wet_places(&self) -> Vec<f32> {
+        let (w, h) = self.size();
+        let Some((left, top, right, bottom)) = pixel_bounds(self.bits().iter().enumerate().filter(|(_, &m)| m).map(|(i, _)| i), w) else {
+            return vec![0.0; w * h];
+        };
+        let size = (bottom - top).max(right - left) as f32 + 1.0;
+        let depth = filter::gaussian_blur(&self.to_image(), (0.05 * size).max(1.0));
+        let span = (bottom - top).max(1) as f32;
+        (0..w * h)
+            .map(|i| {
+                let rim = (2.0 * (1.0 - depth.data()[i])).clamp(0.0, 1.0);
+                let low = ((i / w) as f32 - top as f32).max(0.0) / span;
+                rim + 0.6 * low
+            })
+            .collect()
+    }
     /// A 1-channel image with 1 where set.
     pub fn to_image(&self) -> Image {
         Image::from_fn(self.width, self.height, 1, |x, y, p| p[0] = if self.get(x, y) { 1.0 } else { 0.0 })
