@@ -185,6 +185,16 @@ fn a_tileable_enlargement_repeats_without_seams_at_every_time() {
     assert!(e.is_usage() && e.to_string().contains("tileable"), "{e}");
 }
 
+/// The rusting time-lapse that grow-mode transfer tests use (64 px, 21
+/// frames, spots nucleating at known times), and its degree-3 fit.
+fn rusting_material() -> (Vec<Image>, Material) {
+    let frames = samples::rusting_timelapse(64, 64, 21, 5);
+    let times: Vec<f32> = (0..21).map(|i| i as f32 / 20.0).collect();
+    let mut material = fit::fit(&frames, &times, 3, diffuse()).unwrap().material;
+    material.encoding = Encoding::Srgb;
+    (frames, material)
+}
+
 /// Grow-mode transfer keeps the source's pace, grows its spots outwards and starts where the target
 /// is exposed. Ground truth: the rusting time-lapse's own rusted share
 /// over time (spots nucleating at known times), and a painted target with
@@ -192,10 +202,7 @@ fn a_tileable_enlargement_repeats_without_seams_at_every_time() {
 #[test]
 fn grown_rust_keeps_the_sources_pace() {
     use patina::stbrdf::transfer::{transfer, TransferParams};
-    let frames = samples::rusting_timelapse(64, 64, 21, 5);
-    let times: Vec<f32> = (0..21).map(|i| i as f32 / 20.0).collect();
-    let mut material = fit::fit(&frames, &times, 3, diffuse()).unwrap().material;
-    material.encoding = Encoding::Srgb;
+    let (frames, material) = rusting_material();
     // Share of pixels at least 0.1 darker than at the start.
     let rusted = |img: &Image, start: &Image, only: &dyn Fn(usize) -> bool| {
         let (a, b) = (luminance(img), luminance(start));
@@ -288,10 +295,7 @@ fn grown_rust_keeps_the_sources_pace() {
 #[test]
 fn grown_rust_gathers_where_water_stands() {
     use patina::stbrdf::transfer::{transfer, TransferParams};
-    let frames = samples::rusting_timelapse(64, 64, 21, 5);
-    let times: Vec<f32> = (0..21).map(|i| i as f32 / 20.0).collect();
-    let mut material = fit::fit(&frames, &times, 3, diffuse()).unwrap().material;
-    material.encoding = Encoding::Srgb;
+    let (_, material) = rusting_material();
     let (w, h) = (128, 160);
     let target = Image::from_fn(w, h, 3, |x, y, p| {
         let grain = 0.12 * (samples::fractal_noise(9, x as f32, y as f32, 12.0, 4) - 0.5);

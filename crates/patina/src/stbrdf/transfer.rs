@@ -191,10 +191,7 @@ pub fn transfer(
     }
     let guides = (guide_weight > 0.0)
         .then(|| match params.mode {
-            Mode::Grow => match mask {
-                Some(m) => Some(density_guides(material, kd.clone(), t0, target, m)),
-                None => None,
-            },
+            Mode::Grow => mask.map(|m| density_guides(material, kd.clone(), t0, target, m)),
             _ => {
                 let source_guide = equalize(&luminance(&material.evaluate(t0).select_channels(kd.clone())));
                 let target_guide = equalize(&luminance(&target.select_channels(0..3)));
