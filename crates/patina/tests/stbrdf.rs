@@ -195,6 +195,18 @@ fn rusting_material() -> (Vec<Image>, Material) {
     (frames, material)
 }
 
+/// The share of the pixels `only` picks (by index) that are at least 0.1
+/// darker in `img` than in `start`: rusted.
+fn rusted_share(img: &Image, start: &Image, only: &dyn Fn(usize) -> bool) -> f64 {
+    let (a, b) = (luminance(img), luminance(start));
+    let (mut n, mut of) = (0usize, 0usize);
+    for (_, (p, q)) in a.data().iter().zip(b.data()).enumerate().filter(|(i, _)| only(*i)) {
+        of += 1;
+        n += usize::from(*p < q - 0.1);
+    }
+    n as f64 / of.max(1) as f64
+}
+
 /// Grow-mode transfer keeps the source's pace, grows its spots outwards and starts where the target
 /// is exposed. Ground truth: the rusting time-lapse's own rusted share
 /// over time (spots nucleating at known times), and a painted target with
@@ -203,16 +215,6 @@ fn rusting_material() -> (Vec<Image>, Material) {
 fn grown_rust_keeps_the_sources_pace() {
     use patina::stbrdf::transfer::{transfer, TransferParams};
     let (frames, material) = rusting_material();
-    // Share of pixels at least 0.1 darker than at the start.
-    let rusted = |img: &Image, start: &Image, only: &dyn Fn(usize) -> bool| {
-        let (a, b) = (luminance(img), luminance(start));
-        let (mut n, mut of) = (0usize, 0usize);
-        for (_, (p, q)) in a.data().iter().zip(b.data()).enumerate().filter(|(i, _)| only(*i)) {
-            of += 1;
-            n += usize::from(*p < q - 0.1);
-        }
-        n as f64 / of.max(1) as f64
-    };
     let (w, h) = (128, 128);
     let chips: Vec<(f32, f32)> = (0..48).map(|k| ((k * 37 % 120 + 4) as f32, (k * 53 % 120 + 4) as f32)).collect();
     let near = |i: usize, r: f32| chips.iter().any(|&(cx, cy)| ((i % w) as f32 - cx).hypot((i / w) as f32 - cy) <= r);
@@ -223,8 +225,8 @@ fn grown_rust_keeps_the_sources_pace() {
     });
     let out = transfer(&material, &target, None, &TransferParams::default(), 2, None).unwrap().material;
     let all = |_: usize| true;
-    let shares: Vec<f64> = (0..=10).map(|k| rusted(&basecolor(&out, k as f32 / 10.0), &target, &all)).collect();
-    let source: Vec<f64> = (0..=10).map(|k| rusted(&frames[2 * k], &frames[0], &all)).collect();
+    let shares: Vec<f64> = (0..=10).map(|k| rusted_share(&basecolor(&out, k as f32 / 10.0), &target, &all)).collect();
+    let source: Vec<f64> = (0..=10).map(|k| rusted_share(&frames[2 * k], &frames[0], &all)).collect();
     eprintln!("rusted share over t: {shares:.3?}\nsource: {source:.3?}");
     assert!(shares.windows(2).all(|p| p[1] >= p[0] - 0.005), "what has rusted stays rusted: {shares:.3?}");
     // The rusted share follows the source's from t = 0.3 on (at t = 0.1
@@ -257,7 +259,7 @@ fn grown_rust_keeps_the_sources_pace() {
     let new: Vec<usize> = (0..w * h).filter(|&i| end[i] && !mid[i]).collect();
     let grown = new.iter().filter(|&&i| borders(i)).count() as f64 / new.len().max(1) as f64;
     assert!(grown >= 0.6, "{grown:.3} of the rust new after t = 0.5 borders earlier rust (0.44 when blotches arrive whole)");
-    let near_chips = |k: usize, inside: bool| rusted(&basecolor(&out, k as f32 / 10.0), &target, &|i| near(i, 5.0) == inside);
+    let near_chips = |k: usize, inside: bool| rusted_share(&basecolor(&out, k as f32 / 10.0), &target, &|i| near(i, 5.0) == inside);
     // Rust takes hold first at the chips (exposure leads the choice and the timing).
     let (chipped, open) = (near_chips(3, true), near_chips(3, false));
     assert!(chipped > 1.2 * open, "t = 0.3: {chipped:.3} rusted within 5 px of a chip against {open:.3} elsewhere");
@@ -271,13 +273,14 @@ fn grown_rust_keeps_the_sources_pace() {
         let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
         (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len().max(1) as f64).sqrt()
     };
-    let (kept, own) = (spread(&basecolor(&out, 1.0), &target), spread(&frames[20], &frames[0]));
+    let last = basecolor(&out, 1.0);
+    let (kept, own) = (spread(&last, &target), spread(&frames[20], &frames[0]));
     eprintln!("rust's luminance spread at t = 1: {kept:.4} against the source's {own:.4}");
     assert!(kept > 0.7 * own, "the rust's texture: spread {kept:.4} against the source's {own:.4}");
     // The target's fine relief shows through the rust: at t = 1, rusted
     // texels on the chips stay darker than rusted texels elsewhere (0.78x;
     // 0.83x with the shading at 2 px alone).
-    let (lum, start) = (luminance(&basecolor(&out, 1.0)), luminance(&target));
+    let (lum, start) = (luminance(&last), luminance(&target));
     let mean_where = |on: bool| {
         let v: Vec<f32> =
             (0..w * h).filter(|&i| near(i, 1.5) == on && lum.data()[i] < start.data()[i] - 0.1).map(|i| lum.data()[i]).collect();
@@ -301,25 +304,14 @@ fn grown_rust_gathers_where_water_stands() {
         let grain = 0.12 * (samples::fractal_noise(9, x as f32, y as f32, 12.0, 4) - 0.5);
         p.copy_from_slice(&[0.85 + grain, 0.5 + grain, 0.25 + grain]);
     });
-    // The object: a rounded slab with a margin of background around it.
+    // The object: a slab with a margin of background around it.
     let inside = |x: usize, y: usize| (16..112).contains(&x) && (16..144).contains(&y);
     let mask = Image::from_fn(w, h, 1, |x, y, p| p[0] = if inside(x, y) { 1.0 } else { 0.0 });
     let weighed = |weight: Option<f32>| {
         let params = TransferParams { guide_weight: weight, ..TransferParams::default() };
         let out = transfer(&material, &target, Some(&mask), &params, 2, None).unwrap().material;
-        let (end, start) = (luminance(&basecolor(&out, 1.0)), luminance(&target));
-        let share = |only: &dyn Fn(usize, usize) -> bool| {
-            let (mut n, mut of) = (0usize, 0usize);
-            for y in 0..h {
-                for x in 0..w {
-                    if inside(x, y) && only(x, y) {
-                        of += 1;
-                        n += usize::from(end.at(x, y, 0) < start.at(x, y, 0) - 0.1);
-                    }
-                }
-            }
-            n as f64 / of.max(1) as f64
-        };
+        let end = basecolor(&out, 1.0);
+        let share = |only: &dyn Fn(usize, usize) -> bool| rusted_share(&end, &target, &|i| inside(i % w, i / w) && only(i % w, i / w));
         let low = share(&|_, y| y >= 112) / share(&|_, y| y < 48).max(1e-3);
         let rim = share(&|x, y| x < 24 || x >= 104 || y < 24) / share(&|x, y| (32..96).contains(&x) && (32..104).contains(&y)).max(1e-3);
         (low, rim)

@@ -53,8 +53,13 @@ pub const LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
 /// [`to_linear`] first for photometric luminance, skip it for luma).
 pub fn luminance(img: &Image) -> Image {
     let n = img.channels();
-    let data = img.data().chunks_exact(n).map(|p| if n >= 3 { LUMA[0] * p[0] + LUMA[1] * p[1] + LUMA[2] * p[2] } else { p[0] }).collect();
+    let data = img.data().chunks_exact(n).map(|p| if n >= 3 { pixel_luminance(p) } else { p[0] }).collect();
     Image::from_data(img.width(), img.height(), 1, data).expect("sizes match")
+}
+
+/// One pixel's Rec. 709 luminance (its first three values), as [`luminance`] takes it.
+pub fn pixel_luminance(p: &[f32]) -> f32 {
+    LUMA[0] * p[0] + LUMA[1] * p[1] + LUMA[2] * p[2]
 }
 
 const WHITE: [f32; 3] = [0.950_47, 1.0, 1.088_83];

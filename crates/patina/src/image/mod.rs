@@ -269,9 +269,13 @@ impl Mask {
     /// outline (within about a twentieth of its size; the mask blurred at
     /// that width is a half at the outline and 1 deep inside) plus up to 0.6
     /// towards its bottom. A mask that covers the whole photo has no outline,
-    /// and only the bottom term. Decay's rust and grown stbrdf transfer
-    /// start there.
+    /// and only the bottom term. Decay's rust starts there.
     pub fn wet_places(&self) -> Vec<f32> {
+        self.wet_places_weighted(1.0)
+    }
+    /// [`Mask::wet_places`] with its outline term weighted by `rim`
+    /// (grown stbrdf transfer's rust gathers mostly low).
+    pub fn wet_places_weighted(&self, rim: f32) -> Vec<f32> {
         let (w, h) = self.size();
         let Some((left, top, right, bottom)) = pixel_bounds(self.bits().iter().enumerate().filter(|(_, &m)| m).map(|(i, _)| i), w) else {
             return vec![0.0; w * h];
@@ -281,9 +285,9 @@ impl Mask {
         let span = (bottom - top).max(1) as f32;
         (0..w * h)
             .map(|i| {
-                let rim = (2.0 * (1.0 - depth.data()[i])).clamp(0.0, 1.0);
+                let outline = (2.0 * (1.0 - depth.data()[i])).clamp(0.0, 1.0);
                 let low = ((i / w) as f32 - top as f32).max(0.0) / span;
-                rim + 0.6 * low
+                rim * outline + 0.6 * low
             })
             .collect()
     }

@@ -209,7 +209,7 @@ pub fn enlarge(
     }
     let mut synthesized = problem.optimize(&params.optimize)?;
     if params.verbatim {
-        synthesized.coherent_copies(&coefficients, &crate::image::Mask::from_fn(width, height, |_, _| true));
+        synthesized.coherent_copies(&coefficients, &crate::image::Mask::filled(width, height, true));
     }
     // Guided synthesis places content by the guide, not in blocks: nearly
     // every neighbour pair is a "seam", and blending would integrate the

@@ -66,9 +66,9 @@ use super::enlarge::{enlarge, EnlargeParams};
 use super::material::Material;
 use super::poly::{evaluate, Fitter};
 use crate::error::{Error, Result};
-use crate::image::color::luminance;
+use crate::image::color::{luminance, pixel_luminance};
 use crate::image::filter::{equalize, gaussian_blur};
-use crate::image::{pixel_bounds, Image, Mask};
+use crate::image::{Image, Mask};
 use crate::synth::{OptimizeParams, Progress};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -189,16 +189,17 @@ pub fn transfer(
             )));
         }
     }
-    let guides = (guide_weight > 0.0)
-        .then(|| match params.mode {
-            Mode::Grow => mask.map(|m| density_guides(material, kd.clone(), t0, target, m)),
-            _ => {
-                let source_guide = equalize(&luminance(&material.evaluate(t0).select_channels(kd.clone())));
-                let target_guide = equalize(&luminance(&target.select_channels(0..3)));
-                Some((source_guide, target_guide))
-            }
-        })
-        .flatten();
+    // The source's timing, which the grow guides and the pace both read.
+    let source_timing = Timing::of(material, kd.clone(), t0);
+    let guides = match params.mode {
+        _ if guide_weight <= 0.0 => None,
+        Mode::Grow => mask.map(|m| density_guides(material.size(), &source_timing, target, m)),
+        _ => {
+            let source_guide = equalize(&luminance(&material.evaluate(t0).select_channels(kd.clone())));
+            let target_guide = equalize(&luminance(&target.select_channels(0..3)));
+            Some((source_guide, target_guide))
+        }
+    };
     let synthesized = enlarge(
         material,
         target.size(),
@@ -213,7 +214,7 @@ pub fn transfer(
         chosen => chosen,
     };
     let (degree, coefficients) = match mode {
-        Mode::Grow => grow(&synthesized, target, mask, kd.clone(), t0, &Pace::of(material, kd, t0), seed)?,
+        Mode::Grow => grow(&synthesized, target, mask, kd.clone(), t0, &Pace::of(material, kd, &source_timing), seed)?,
         _ => (material.degree, scaled(&synthesized, target, kd, t0, mode)),
     };
     let mut out = Material::new(degree, material.params.clone(), coefficients)?;
@@ -234,8 +235,8 @@ const DENSITY_FLOOR: f32 = 0.3;
 const RIM_SHARE: f32 = 0.3;
 
 /// [`Mode::Grow`]'s guides (weighted by [`TransferParams::guide_weight`]):
-/// - source: how much of the material changes around each texel, its
-///   whole change |D| blurred at [`DENSITY_SIGMA`], equalised to [0, 1];
+/// - source: how much of the material (of size `(w, h)`, timed by
+///   `timing`) changes around each texel, its whole change |D| blurred at [`DENSITY_SIGMA`], equalised to [0, 1];
 /// - target: where water stands on the object ([`Mask::wet_places`]: its
 ///   rims and its bottom), blurred the same, scaled from [`DENSITY_FLOOR`]
 ///   on the driest part to 1 on the wettest.
@@ -247,10 +248,8 @@ const RIM_SHARE: f32 = 0.3;
 /// The guide costs some of the rust's inner texture (the rusted texels'
 /// luminance spread on the test material falls from 0.80 to 0.67 of the
 /// source's).
-fn density_guides(material: &Material, kd: std::ops::Range<usize>, t0: f32, target: &Image, mask: &Image) -> (Image, Image) {
-    let timing = Timing::of(material, kd, t0);
-    let (w, h) = material.size();
-    let change = Image::from_data(w, h, 1, timing.size).expect("one value per texel");
+fn density_guides((w, h): (usize, usize), timing: &Timing, target: &Image, mask: &Image) -> (Image, Image) {
+    let change = Image::from_data(w, h, 1, timing.size.clone()).expect("one value per texel");
     let source = equalize(&gaussian_blur(&change, DENSITY_SIGMA));
     let (tw, th) = target.size();
     let object = Mask::from_image(mask);
@@ -258,17 +257,7 @@ fn density_guides(material: &Material, kd: std::ops::Range<usize>, t0: f32, targ
     // the rims count RIM_SHARE of that here: at full weight the rust drew
     // the object's outline as a stroke (review: 79% of the texels within
     // 8 px of it rusted against 29% inside).
-    let (top, span) = pixel_bounds(object.bits().iter().enumerate().filter(|(_, &m)| m).map(|(i, _)| i), tw)
-        .map_or((0, 1), |(_, top, _, bottom)| (top, (bottom - top).max(1)));
-    let wet: Vec<f32> = object
-        .wet_places()
-        .iter()
-        .enumerate()
-        .map(|(i, v)| {
-            let low = 0.6 * ((i / tw) as f32 - top as f32).max(0.0) / span as f32;
-            RIM_SHARE * (v - low) + low
-        })
-        .collect();
+    let wet = object.wet_places_weighted(RIM_SHARE);
     let wet = Image::from_data(tw, th, 1, wet).expect("one value per pixel");
     let mut guide = gaussian_blur(&wet, DENSITY_SIGMA);
     let top = guide.data().iter().copied().fold(0.0f32, f32::max).max(1e-3);
@@ -431,8 +420,8 @@ struct Pace {
 }
 
 impl Pace {
-    fn of(material: &Material, kd: std::ops::Range<usize>, t0: f32) -> Pace {
-        let timing = Timing::of(material, kd.clone(), t0);
+    /// The pace of `material`, whose Diffuse is channels `kd`, from its `timing`.
+    fn of(material: &Material, kd: std::ops::Range<usize>, timing: &Timing) -> Pace {
         let top = timing.top();
         let (arriving, mut arrivals): (Vec<usize>, Vec<f32>) =
             (0..timing.size.len()).map(|i| (i, timing.arrival(i, top))).filter(|&(_, a)| a <= 1.0).unzip();
@@ -448,7 +437,7 @@ impl Pace {
 }
 
 /// How far ahead of its rank (a share of the object's texels) the most
-/// exposed texel ([`exposure`]) arrives, and is chosen to arrive at all.
+/// exposed texel ([`exposure`]) is chosen to take the material on.
 const EXPOSURE_LEAD: f32 = 1.0;
 
 /// Each texel's arrival time on the target, from the source's pace:
@@ -460,8 +449,9 @@ const EXPOSURE_LEAD: f32 = 1.0;
 ///   28% of the source had rusted at t = 1), so the result's own strongest
 ///   changes are completed to the source's share, crevices first;
 /// - when: the chosen texels are ordered by their own arrival (strength
-///   floored at [`GROW_CUT`]) as a rank r in [0, 1], brought forward by
-///   [`EXPOSURE_LEAD`] times their exposure, and given the source's arrival
+///   floored at [`GROW_CUT`]) as a rank r in [0, 1], half of it by their
+///   depth in the chosen region, brought forward by [`NEAR_LEAD`] times
+///   their nearness to exposed places, and given the source's arrival
 ///   at that rank. So the covered share grows at the source's pace (0.1%
 ///   of the result's texels had changed before t = 0.5 against 5.6% of
 ///   the source's, on the capture onto a photo), and within it the
@@ -530,7 +520,7 @@ const GROW_FROM_MIDDLE: f32 = 0.5;
 const GROW_DEPTH: f32 = 6.0;
 
 /// What texel `i` becomes at t_D over the target, as a colour and its
-/// opacity, from its own end state `end` (channel `c`) and its exposure
+/// opacity, from its own end state `end` (RGB) and its exposure
 /// `e`: the material covers the target as much as the texel holds of a
 /// spot, its strength s = |D| / top over the source's median arriving
 /// strength s_m (texture optimization and the source's own rims mix spots
@@ -541,6 +531,11 @@ const GROW_DEPTH: f32 = 6.0;
 /// every chosen texel opaque: weak ones un-mixed from the source's
 /// background (which amplified the rims' hue into olive) or filled with the
 /// mean (flat, camouflage-like blotches, review).
+///
+/// A rim texel's own colour is part bare surface (rusting steel's grey):
+/// it keeps its own colour in the share of it that is spot, and takes the
+/// mean end state's hue at its own luminance in the rest (grey feathered
+/// edges, review).
 ///
 /// The darkest of the material's end states are its polynomials' ends
 /// (where a fit is least sure); under the target's shade they went
@@ -553,12 +548,11 @@ fn end_state(timing: &Timing, pace: &Pace, i: usize, end: [f32; 3], e: f32) -> (
     if opacity <= 0.0 {
         return (end, 0.0);
     }
-    let light = |v: [f32; 3]| 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
-    let mean = light(pace.colour).max(1e-3);
-    let tint = light(end) / mean;
+    let mean = pixel_luminance(&pace.colour).max(1e-3);
+    let tint = pixel_luminance(&end) / mean;
     let rim: [f32; 3] = std::array::from_fn(|c| own * end[c] + (1.0 - own) * tint * pace.colour[c]);
     let mut colour: [f32; 3] = std::array::from_fn(|c| (own * rim[c] + (opacity - own) * pace.colour[c]) / opacity);
-    let l = light(colour);
+    let l = pixel_luminance(&colour);
     if l < DARKEST * mean {
         let lift = (DARKEST * mean - l) / mean;
         colour.iter_mut().zip(pace.colour).for_each(|(v, m)| *v += lift * m);
@@ -577,8 +571,8 @@ const ARRIVAL_DITHER: f32 = 1.5;
 /// Grain size (px) of that dither.
 const DITHER_SCALE: f32 = 2.5;
 
-/// Per-texel dither of the arrivals (those that arrive, <= 1), uniform in
-/// +-[`ARRIVAL_DITHER`] [`GROW_FRONT`]: a front the polynomial can only
+/// Per-texel dither of the arrivals (those that arrive, <= 1): fBm noise
+/// of grain [`DITHER_SCALE`], within +-[`ARRIVAL_DITHER`] [`GROW_FRONT`]: a front the polynomial can only
 /// follow as a ramp of 2 GROW_FRONT in time shows as a grain of texels
 /// partly arrived, not as a soft translucent blur over a whole blotch.
 fn dither(arrivals: &mut [f32], width: usize, seed: u64) {
@@ -785,7 +779,7 @@ mod tests {
     fn the_arriving_rust_is_never_black_and_its_rims_are_not_grey() {
         let timing = Timing { size: vec![1.0, 0.4, 1.0], onset: vec![0.5; 3], end_at: 1.0 };
         let pace = Pace { arrivals: vec![0.5], share: 0.5, colour: [0.3, 0.16, 0.07], strength: 1.0, top: 1.0 };
-        let light = |v: [f32; 3]| 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
+        let light = |v: [f32; 3]| pixel_luminance(&v);
         let (black, opacity) = end_state(&timing, &pace, 0, [0.01, 0.01, 0.02], 0.0);
         assert_eq!(opacity, 1.0);
         assert!(light(black) >= DARKEST * light(pace.colour) - 1e-4, "{black:?}");
