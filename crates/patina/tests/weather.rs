@@ -45,6 +45,61 @@ const GROUND_TRUTH: [(&str, Weathering, f32, f32, f32); 9] = [
     ("planks", Weathering::Rust, 0.1, 0.95, 0.1),
 ];
 
+/// Round tiles of which a third have darkened all over, each in its own
+/// shade, with a blotchy stain of their own (the stained circle tiles of
+/// ../shared/data) are still a grid: the intact texture is their median
+/// tile, so the darkened discs come back light and keep their rims. (A
+/// colour test of the median tile threw such grids away, and the
+/// stochastic fill then erased the rims of the discs it re-made.)
+#[test]
+fn discs_darkened_each_in_its_own_shade_keep_their_grid_and_come_back_light() {
+    let (p, side) = (40, 240);
+    let original = samples::disc_grid(side, side, p, 2);
+    let darkened = |x: usize, y: usize| {
+        let (i, j) = ((x / p) as u64, (y / p) as u64);
+        let h = (i * 7 + j * 13 + i * j * 3) % 9;
+        (h < 3).then(|| 0.3 + 0.1 * h as f32 + 0.25 * samples::fractal_noise(9, x as f32, y as f32, 6.0, 2))
+    };
+    let img = Image::from_fn(side, side, 3, |x, y, px| {
+        px.copy_from_slice(original.pixel(x, y));
+        if let Some(k) = darkened(x, y) {
+            px.iter_mut().for_each(|v| *v *= k);
+        }
+    });
+    let age = age_map(&img, &AgeParams::default()).unwrap();
+    let result = intact(&img, &age.map, None, &IntactParams::default(), 5).unwrap();
+    assert!(result.lattice.is_some(), "no grid kept");
+    let pf = p as f32;
+    let radius = |x: usize, y: usize| {
+        let (u, v) = ((x % p) as f32 + 0.5 - pf / 2.0, (y % p) as f32 + 0.5 - pf / 2.0);
+        (u * u + v * v).sqrt() / (0.47 * pf)
+    };
+    let luminance = |im: &Image, x: usize, y: usize| im.pixel(x, y).iter().sum::<f32>() / 3.0;
+    let (mut rims, mut rims_light, mut inside, mut lift, mut darkening) = (0, 0, 0, 0.0, 0.0);
+    for y in 0..side {
+        for x in 0..side {
+            if darkened(x, y).is_none() {
+                continue;
+            }
+            let r = radius(x, y);
+            if (0.96..0.99).contains(&r) {
+                rims += 1;
+                rims_light += usize::from(luminance(&result.image, x, y) > 0.55);
+            } else if r < 0.8 {
+                inside += 1;
+                lift += luminance(&result.image, x, y) - luminance(&img, x, y);
+                darkening += luminance(&original, x, y) - luminance(&img, x, y);
+            }
+        }
+    }
+    let rim_share = rims_light as f32 / rims as f32;
+    assert!(rim_share > 0.8, "only {rim_share:.2} of the darkened discs' rims are light");
+    // The discs' own shades differ, so the median tile undoes the darkening
+    // on average only (0.66 of it).
+    let (lift, darkening) = (lift / inside as f32, darkening / inside as f32);
+    assert!(lift > 0.5 * darkening, "the darkened discs are lifted by {lift:.3} of {darkening:.3}");
+}
+
 #[test]
 fn the_age_map_and_the_intact_texture_find_and_remove_injected_weathering() {
     let size = 256;

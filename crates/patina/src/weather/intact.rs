@@ -184,7 +184,7 @@ pub fn intact(img: &Image, age: &Image, layers: Option<&Layers>, params: &Intact
         // A lattice found on a surface seen in perspective (a roof) repeats
         // only roughly; its median tile is a blur and the texture is better
         // treated as stochastic.
-        if !tiles::explained_by(img, m, Some(&allowed)) {
+        if !tiles::keeps_structure(img, m, Some(&allowed)) {
             lattice = None;
         }
     }
