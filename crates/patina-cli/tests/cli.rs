@@ -1,7 +1,9 @@
 //! The `patina` binary: outputs, manifests, determinism across thread
 //! counts and bad-input behaviour (one line, exit 2, nothing left behind).
 
+mod scratch_support;
 use patina::image::io::{load, save_png, BitDepth};
+use scratch_support::Scratch;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -14,11 +16,8 @@ fn patina(args: &[&str], threads: Option<usize>) -> Output {
     cmd.output().expect("runs")
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("patina-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> Scratch {
+    Scratch::new("cli", name)
 }
 
 fn exemplar(dir: &Path) -> PathBuf {

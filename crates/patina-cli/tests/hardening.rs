@@ -4,9 +4,11 @@
 
 mod fuzz_support;
 
+mod scratch_support;
 use fuzz_support::crc32;
 use patina::image::io::{encode_png, save_exr, save_png, BitDepth};
 use patina::image::Image;
+use scratch_support::Scratch;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -14,11 +16,8 @@ fn patina(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_patina")).args(args).output().expect("runs")
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("patina-hard-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> Scratch {
+    Scratch::new("hard", name)
 }
 
 fn s(p: &Path) -> &str {

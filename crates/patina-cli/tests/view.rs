@@ -3,23 +3,22 @@
 //! slider exists, moving it changes the frame, the material's WebGL canvas
 //! renders non-blank pixels that change with t.
 
+mod scratch_support;
 use patina::image::io::{save_png, BitDepth};
 use patina::image::Image;
+use scratch_support::Scratch;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("patina-view-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn scratch(name: &str) -> Scratch {
+    Scratch::new("view", name)
 }
 
 /// A weather-like output folder: four frames over t, an age map and a
 /// manifest naming the frames with their times.
-fn weather_folder() -> PathBuf {
+fn weather_folder() -> Scratch {
     let dir = scratch("weather");
     std::fs::create_dir_all(dir.join("frames")).unwrap();
     let mut frames = Vec::new();
@@ -42,14 +41,16 @@ fn weather_folder() -> PathBuf {
     dir
 }
 
-/// A material folder: drying wood fitted with cubics.
-fn material_folder() -> PathBuf {
+/// A material folder (the path) inside its scratch folder: drying wood
+/// fitted with cubics.
+fn material_folder() -> (Scratch, PathBuf) {
     use patina::stbrdf::{fit, procedural};
     let dir = scratch("material");
     let (frames, times) = procedural::drying_wood(40, 32, 6, 2);
     let m = fit::fit(&frames, &times, 3, procedural::drying_wood_params()).unwrap().material;
     m.save(&dir.join("mat")).unwrap();
-    dir.join("mat")
+    let path = dir.join("mat");
+    (dir, path)
 }
 
 /// `patina view DIR --port 0 --no-open`, killed when dropped.
@@ -133,7 +134,7 @@ fn view_serves_the_page_the_listing_and_files_and_refuses_traversal() {
 
 #[test]
 fn view_serves_a_materials_coefficients() {
-    let dir = material_folder();
+    let (_scratch, dir) = material_folder();
     let server = Server::start(&dir);
     let (code, _, meta) = server.get("/api/material.json");
     assert_eq!(code, 200);
@@ -191,12 +192,14 @@ fn in_chromium_the_slider_moves_the_frame_and_the_material_renders() {
         eprintln!("SKIPPED: no chromium in PATH (apt-get install chromium; .ci/run installs it)");
         return;
     };
-    let weather = Server::start(&weather_folder());
+    let weather_dir = weather_folder();
+    let weather = Server::start(&weather_dir);
     let r = selftest(browser, &weather.url());
     assert_eq!(r["view"], "sequence", "{r}");
     assert_eq!(r["slider"], true, "{r}");
     assert_eq!(r["frameChanged"], true, "moving the time slider changes the displayed frame: {r}");
-    let material = Server::start(&material_folder());
+    let (_material_scratch, material_dir) = material_folder();
+    let material = Server::start(&material_dir);
     let r = selftest(browser, &material.url());
     assert_eq!(r["view"], "material", "{r}");
     assert_eq!(r["slider"], true, "{r}");
