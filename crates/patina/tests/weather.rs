@@ -336,6 +336,35 @@ fn future_frames_grow_from_the_existing_damage() {
     assert!(new_rust as f32 >= 0.5 * new_total as f32, "{new_rust} of {new_total} newly changed pixels look like rust");
 }
 
+/// The future grows the damage in proportion to the damage there is: a
+/// surface with a few small blooms (2.5% of it) is not half covered at
+/// t = 2, and one with many (10%) grows more than one with few.
+#[test]
+fn future_growth_follows_the_damage_there_is() {
+    use patina::weather::growth::clean_share_weathered;
+    // The law: the weathered area's odds double per unit of t, with a floor.
+    for f in [0.025f32, 0.1, 0.37] {
+        let at2 = f + (1.0 - f) * clean_share_weathered(f, 2.0);
+        let odds = |f: f32| f / (1.0 - f);
+        assert!((odds(at2) / odds(f) - 2.0).abs() < 0.05 || at2 - f <= 0.0701, "{f} -> {at2}");
+        assert!(at2 - f >= 0.0699, "{f} grows by only {:.3} by t = 2", at2 - f);
+        let mid = f + (1.0 - f) * clean_share_weathered(f, 1.5);
+        assert!(f < mid && mid < at2, "{f} -> {mid} -> {at2}: not monotone");
+    }
+    // On images: the share of damage at t = 2 over the share at t = 1.
+    let grown_share = |area: f32| {
+        let (img, mask) = samples::weather(&samples::stucco(160, 160, 3), Weathering::Rust, area, 7);
+        let last = grown_to_t2(&img, &mask, 3);
+        let d = colour_distance(&last, &img).unwrap();
+        let new = d.iter().zip(mask.bits()).filter(|(v, m)| **v > 0.1 && !**m).count() as f32;
+        (new / (160.0 * 160.0), mask.count() as f32 / (160.0 * 160.0))
+    };
+    let (few_new, few) = grown_share(0.03);
+    let (many_new, many) = grown_share(0.12);
+    assert!(few_new <= 0.15, "{:.1}% damage grew by {:.1}% of the surface", 100.0 * few, 100.0 * few_new);
+    assert!(many_new > few_new, "more damage grew less: {many_new:.3} (from {many:.3}) vs {few_new:.3} (from {few:.3})");
+}
+
 #[test]
 fn boards_are_stripes_and_their_grooves_do_not_age() {
     let img = samples::planks(256, 256, 3);
@@ -410,9 +439,15 @@ fn rimmed_blooms(base: &Image, colour: [f32; 3]) -> (Image, patina::image::Mask)
 
 /// The last of 3 future frames (t = 2) of `img` grown from `mask` as its age map.
 fn grown_to_t2(img: &Image, mask: &patina::image::Mask, seed: u64) -> Image {
+    grown_to(img, mask, seed, 2.0)
+}
+
+/// The last of 3 future frames, at time `t`, of `img` grown from `mask` as
+/// its age map.
+fn grown_to(img: &Image, mask: &patina::image::Mask, seed: u64, t: f32) -> Image {
     let age = mask.to_image();
     let mut p = WeatherParams::default();
-    (p.sequence.past, p.sequence.future) = (0, 3);
+    (p.sequence.past, p.sequence.future, p.sequence.future_span) = (0, 3, t - 1.0);
     let r = weather::weather(img, &p, Overrides { age: Some(&age), ..Default::default() }, seed, &|_| {}).unwrap();
     r.frames.last().unwrap().image.clone()
 }
@@ -482,9 +517,11 @@ fn damage_grows_along_the_grain_of_boards_and_evenly_on_plaster() {
 fn grown_damage_is_whole_material_not_pixel_speckle() {
     // New damage must look like the input's damage at the pixel scale: its
     // pixel-to-pixel roughness (mean |4-neighbour Laplacian| of luminance)
-    // near the input's, not a checkerboard of alternating sources.
+    // near the input's, not a checkerboard of alternating sources. Grown to
+    // t = 3, so the new damage has interiors (the blooms are 7% of the
+    // surface and grow by about as much per unit of t).
     let (img, mask) = rimmed_blooms(&samples::stucco(SIZE, SIZE, 5), [0.85, 0.45, 0.15]);
-    let last = &grown_to_t2(&img, &mask, 7);
+    let last = &grown_to(&img, &mask, 7, 3.0);
     let lum = |im: &Image, x: usize, y: usize| {
         let q = im.pixel(x, y);
         0.3 * q[0] + 0.59 * q[1] + 0.11 * q[2]
