@@ -7,7 +7,10 @@
 //! The work runs on its own thread with the GIL released; the calling
 //! thread wakes every 50 ms to deliver progress to the Python callback and
 //! to check for Ctrl-C, which cancels the run (see `embed`) and raises
-//! `KeyboardInterrupt` once it has stopped and cleaned up.
+//! `KeyboardInterrupt` once it has stopped and cleaned up. Before an output
+//! folder is moved into place, the run waits for the calling thread to
+//! deliver the latest report: a callback that raises then stops even a run
+//! that finished between two wakes, and nothing is left behind.
 
 use patina::image::io::{self, BitDepth};
 use patina::image::Image;
@@ -20,6 +23,15 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
+
+/// What the run's thread tells the calling thread.
+enum Message {
+    /// An output folder is about to be moved into place: answer whether
+    /// the run goes on.
+    Commit(mpsc::Sender<bool>),
+    /// The run ended.
+    Done,
+}
 
 /// The latest progress report: (stage, done, total), and whether it is new.
 type Latest = Arc<Mutex<(Option<(String, u64, u64)>, bool)>>;
@@ -45,15 +57,24 @@ fn run(py: Python<'_>, args: Vec<String>, threads: Option<usize>, progress: Opti
             *l = (Some((stage.to_string(), done, total)), true);
         })
     };
-    let (tx, rx) = mpsc::channel();
+    let (tx, rx) = mpsc::channel::<Message>();
     let rx = Mutex::new(rx);
     let worker_cancel = cancel.clone();
+    let commit_tx = tx.clone();
+    // Ask the calling thread, and wait for its answer (no answer: it is
+    // gone, stop).
+    let before_commit: embed::Barrier = Arc::new(move || {
+        let (reply, answer) = mpsc::channel();
+        commit_tx.send(Message::Commit(reply)).is_ok() && answer.recv().unwrap_or(false)
+    });
     let worker = std::thread::Builder::new()
         .name("patina".into())
         .stack_size(16 << 20)
         .spawn(move || {
-            let outcome = embed::run(embed::Run { args: &args, threads, progress: Some(report), cancel: worker_cancel });
-            let _ = tx.send(());
+            let run =
+                embed::Run { args: &args, threads, progress: Some(report), cancel: worker_cancel, before_commit: Some(before_commit) };
+            let outcome = embed::run(run);
+            let _ = tx.send(Message::Done);
             outcome
         })
         .map_err(|e| PyRuntimeError::new_err(format!("cannot start the worker thread: {e}")))?;
@@ -70,7 +91,18 @@ fn run(py: Python<'_>, args: Vec<String>, threads: Option<usize>, progress: Opti
             }
         }
         match waited {
-            Ok(()) | Err(RecvTimeoutError::Disconnected) => break,
+            Ok(Message::Commit(reply)) => {
+                // The callback sees the latest report before anything is in
+                // place; if it raised (now or before), the run stops.
+                if interrupted.is_none() {
+                    if let Err(e) = deliver(py, &latest, progress.as_ref()) {
+                        cancel.store(true, Ordering::Relaxed);
+                        interrupted = Some(e);
+                    }
+                }
+                let _ = reply.send(interrupted.is_none());
+            }
+            Ok(Message::Done) | Err(RecvTimeoutError::Disconnected) => break,
             Err(RecvTimeoutError::Timeout) => {}
         }
     }
@@ -111,7 +143,11 @@ fn deliver(py: Python<'_>, latest: &Latest, progress: Option<&Py<PyAny>>) -> PyR
     let report = {
         let mut l = latest.lock().unwrap_or_else(|p| p.into_inner());
         let fresh = std::mem::replace(&mut l.1, false);
-        if fresh { l.0.clone() } else { None }
+        if fresh {
+            l.0.clone()
+        } else {
+            None
+        }
     };
     if let Some((stage, done, total)) = report {
         callback.call1(py, (stage, done, total))?;

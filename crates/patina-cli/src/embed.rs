@@ -7,7 +7,11 @@
 //! - **cancel**: setting the run's flag stops it at its next progress report.
 //!   The stop unwinds like a panic (without printing anything), so every
 //!   transactional output folder and temporary file is removed on the way,
-//!   and the run returns [`Failure::Cancelled`];
+//!   and the run returns [`Failure::Cancelled`]. Just before an output
+//!   folder is moved into place, the run asks the embedding's
+//!   [`Run::before_commit`] whether to go on: an embedding that delivers
+//!   progress on another thread can thus stop a run that finished between
+//!   two of its deliveries, before anything is in place;
 //! - **the output images at full precision** (`f32`), as they were before
 //!   8-bit encoding, keyed by the path they were written to.
 //!
@@ -22,6 +26,10 @@ use std::sync::{Arc, Mutex, RwLock};
 
 /// A progress callback: (stage label, done, total).
 pub type Progress = Arc<dyn Fn(&str, u64, u64) + Send + Sync>;
+
+/// Asked on the run's thread just before an output folder is moved into
+/// place: `false` cancels the run (nothing is put in place).
+pub type Barrier = Arc<dyn Fn() -> bool + Send + Sync>;
 
 /// How an embedded run ended without finishing.
 #[derive(Debug)]
@@ -52,11 +60,14 @@ pub struct Run<'a> {
     pub threads: Option<usize>,
     pub progress: Option<Progress>,
     pub cancel: Arc<AtomicBool>,
+    /// See [`Barrier`]; `None` commits whenever the run is not cancelled.
+    pub before_commit: Option<Barrier>,
 }
 
 struct Session {
     progress: Option<Progress>,
     cancel: Arc<AtomicBool>,
+    before_commit: Option<Barrier>,
     outputs: Mutex<Vec<Output>>,
 }
 
@@ -86,7 +97,8 @@ pub fn run(run: Run<'_>) -> Result<Vec<Output>, Failure> {
         ),
         None => None,
     };
-    let session = Arc::new(Session { progress: run.progress, cancel: run.cancel, outputs: Mutex::new(Vec::new()) });
+    let session =
+        Arc::new(Session { progress: run.progress, cancel: run.cancel, before_commit: run.before_commit, outputs: Mutex::new(Vec::new()) });
     *ACTIVE.write().unwrap_or_else(|p| p.into_inner()) = Some(session.clone());
     let result = catch_unwind(AssertUnwindSafe(|| match &pool {
         Some(pool) => pool.install(|| crate::execute(cli)),
@@ -117,6 +129,18 @@ pub(crate) fn progress_hook() -> Option<impl Fn(&str, u64, u64) + Sync> {
             p(label, done, total);
         }
     })
+}
+
+/// In an embedded run, just before an output folder is moved into place:
+/// stop the run (unwinding, so the staging folder is removed) when it was
+/// cancelled or the embedding's [`Run::before_commit`] says no.
+pub(crate) fn commit_point() {
+    let Some(session) = ACTIVE.read().unwrap_or_else(|p| p.into_inner()).clone() else { return };
+    let go_on = !session.cancel.load(Ordering::Relaxed) && session.before_commit.as_ref().is_none_or(|b| b());
+    if !go_on {
+        session.cancel.store(true, Ordering::Relaxed);
+        resume_unwind(Box::new(Cancelled));
+    }
 }
 
 /// Whether an embedded run is in progress.

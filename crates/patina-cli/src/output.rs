@@ -176,8 +176,11 @@ impl OutDir {
         &self.staging
     }
 
-    /// Move the finished folder into place, replacing the previous one.
+    /// Move the finished folder into place, replacing the previous one
+    /// (in an embedded run, unless it is stopped there: see
+    /// [`crate::embed::commit_point`]).
     pub fn commit(mut self) -> Result<()> {
+        crate::embed::commit_point();
         let werr = |path: &Path| {
             let path = path.to_path_buf();
             move |source| Error::Write { path, source }
