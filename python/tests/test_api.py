@@ -148,6 +148,10 @@ def test_a_raising_callback_stops_the_job_and_leaves_no_output(tmp_path):
     with pytest.raises(Stop):
         patina.weather(rusted(64, 64), out=tmp_path / "w", past=2, future=2, progress=stop)
     assert list(tmp_path.iterdir()) == [], "a stopped job left files behind"
+    # A single-file job that finishes within one 50 ms wake is stopped too.
+    with pytest.raises(Stop):
+        patina.synth(bricks(48, 48), size=(48, 48), out=tmp_path / "s.png", progress=stop)
+    assert list(tmp_path.iterdir()) == [], "a stopped single-file job left files behind"
 
 
 def test_ctrl_c_cancels_cleanly(tmp_path):

@@ -279,6 +279,7 @@ pub fn run_texture(args: TextureArgs) -> Result<()> {
         None => texture::generate(args.class, args.seed, args.offset.0, args.offset.1, w, h)?,
     };
     manifest.timings_ms.insert("generate".into(), clock.lap());
+    crate::embed::commit_point();
     save(&texture.select_channels(0..3), &args.out, BitDepth::Eight)?;
     if let Some(onset) = &args.onset {
         save(&texture.select_channels(3..4), onset, BitDepth::Eight)?;

@@ -9,7 +9,8 @@
 //!   transactional output folder and temporary file is removed on the way,
 //!   and the run returns [`Failure::Cancelled`]. Just before an output
 //!   folder is moved into place, the run asks the embedding's
-//!   [`Run::before_commit`] whether to go on: an embedding that delivers
+//!   [`Run::before_commit`] whether to go on (single-file jobs: before
+//!   their first file is written): an embedding that delivers
 //!   progress on another thread can thus stop a run that finished between
 //!   two of its deliveries, before anything is in place;
 //! - **the output images at full precision** (`f32`), as they were before
@@ -28,7 +29,8 @@ use std::sync::{Arc, Mutex, RwLock};
 pub type Progress = Arc<dyn Fn(&str, u64, u64) + Send + Sync>;
 
 /// Asked on the run's thread just before an output folder is moved into
-/// place: `false` cancels the run (nothing is put in place).
+/// place, or a single-file job writes its first file: `false` cancels the
+/// run (nothing is put in place).
 pub type Barrier = Arc<dyn Fn() -> bool + Send + Sync>;
 
 /// How an embedded run ended without finishing.
@@ -131,9 +133,10 @@ pub(crate) fn progress_hook() -> Option<impl Fn(&str, u64, u64) + Sync> {
     })
 }
 
-/// In an embedded run, just before an output folder is moved into place:
-/// stop the run (unwinding, so the staging folder is removed) when it was
-/// cancelled or the embedding's [`Run::before_commit`] says no.
+/// In an embedded run, just before an output folder is moved into place
+/// (or a single-file job writes its first file): stop the run (unwinding,
+/// so a staging folder is removed) when it was cancelled or the
+/// embedding's [`Run::before_commit`] says no.
 pub(crate) fn commit_point() {
     let Some(session) = ACTIVE.read().unwrap_or_else(|p| p.into_inner()).clone() else { return };
     let go_on = !session.cancel.load(Ordering::Relaxed) && session.before_commit.as_ref().is_none_or(|b| b());

@@ -330,6 +330,7 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(l) = lattice.as_ref().filter(|_| args.tile) {
         tile_fit_note(l, size);
     }
+    crate::embed::commit_point();
     crate::output::save(&image, &args.out, depth)?;
     manifest.timings_ms.insert("save".into(), clock.lap());
     params["size"] = json!([size.0, size.1]);

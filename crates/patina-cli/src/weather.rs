@@ -269,6 +269,7 @@ pub fn run_age_map(args: SingleArgs) -> Result<()> {
     let params = args.method.params();
     let (map, grid) = weather::resolve_age(&input, &params.age, None, layers.as_ref())?;
     manifest.timings_ms.insert("age_map".into(), clock.lap());
+    crate::embed::commit_point();
     save_png(&map, &args.out, BitDepth::Eight)?;
     let mut p = serde_json::to_value(&params.age).map_err(|e| Error::Internal(e.to_string()))?;
     if let Some((n, patch, k)) = grid {
@@ -290,6 +291,7 @@ pub fn run_intact(args: SingleArgs) -> Result<()> {
     let (age, _) = weather::resolve_age(&input, &params.age, user_age.as_ref(), layers.as_ref())?;
     let result = with_bar("intact", |_| intact(&input, &age, layers.as_ref(), &params.intact, args.method.seed))?;
     manifest.timings_ms.insert("intact".into(), clock.lap());
+    crate::embed::commit_point();
     save_png(&result.image, &args.out, BitDepth::Eight)?;
     let mut p = serde_json::to_value(&params.intact).map_err(|e| Error::Internal(e.to_string()))?;
     p["age"] = serde_json::to_value(&params.age).map_err(|e| Error::Internal(e.to_string()))?;
