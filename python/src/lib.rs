@@ -8,9 +8,10 @@
 //! thread wakes every 50 ms to deliver progress to the Python callback and
 //! to check for Ctrl-C, which cancels the run (see `embed`) and raises
 //! `KeyboardInterrupt` once it has stopped and cleaned up. Before an output
-//! folder is moved into place, the run waits for the calling thread to
-//! deliver the latest report: a callback that raises then stops even a run
-//! that finished between two wakes, and nothing is left behind.
+//! folder is moved into place (or a single-file job writes its file), the
+//! run waits for the calling thread to deliver the latest report: a
+//! callback that raises then stops even a run that finished between two
+//! wakes, and nothing is left behind.
 
 use patina::image::io::{self, BitDepth};
 use patina::image::Image;
@@ -26,8 +27,7 @@ use std::time::Duration;
 
 /// What the run's thread tells the calling thread.
 enum Message {
-    /// An output folder is about to be moved into place: answer whether
-    /// the run goes on.
+    /// Outputs are about to be put in place: answer whether the run goes on.
     Commit(mpsc::Sender<bool>),
     /// The run ended.
     Done,
@@ -91,15 +91,10 @@ fn run(py: Python<'_>, args: Vec<String>, threads: Option<usize>, progress: Opti
             }
         }
         match waited {
+            // The step above has just delivered the report the run made
+            // before it asked: if the callback raised (then or before),
+            // nothing is put in place.
             Ok(Message::Commit(reply)) => {
-                // The callback sees the latest report before anything is in
-                // place; if it raised (now or before), the run stops.
-                if interrupted.is_none() {
-                    if let Err(e) = deliver(py, &latest, progress.as_ref()) {
-                        cancel.store(true, Ordering::Relaxed);
-                        interrupted = Some(e);
-                    }
-                }
                 let _ = reply.send(interrupted.is_none());
             }
             Ok(Message::Done) | Err(RecvTimeoutError::Disconnected) => break,
@@ -143,11 +138,7 @@ fn deliver(py: Python<'_>, latest: &Latest, progress: Option<&Py<PyAny>>) -> PyR
     let report = {
         let mut l = latest.lock().unwrap_or_else(|p| p.into_inner());
         let fresh = std::mem::replace(&mut l.1, false);
-        if fresh {
-            l.0.clone()
-        } else {
-            None
-        }
+        if fresh { l.0.clone() } else { None }
     };
     if let Some((stage, done, total)) = report {
         callback.call1(py, (stage, done, total))?;

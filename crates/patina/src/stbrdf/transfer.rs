@@ -770,6 +770,8 @@ fn keep_outside(material: &mut Material, target: &Image, mask: &Image, t0: f32) 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stbrdf::fit::fit;
+    use crate::stbrdf::procedural::{drying_wood, drying_wood_params};
 
     /// A black, hue-less end state (a polynomial's end undershooting) comes
     /// out rust-hued at [`DARKEST`] of the mean rust's luminance; a rim
@@ -791,8 +793,6 @@ mod tests {
         let brown = [0.45, 0.25, 0.12];
         assert_eq!(end_state(&timing, &pace, 2, brown, 0.0), (brown, 1.0));
     }
-    use crate::stbrdf::fit::fit;
-    use crate::stbrdf::procedural::{drying_wood, drying_wood_params};
 
     #[test]
     fn the_result_equals_the_target_at_t0_and_follows_its_pattern() {

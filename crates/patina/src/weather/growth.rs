@@ -48,8 +48,9 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 /// Factor by which the weathered area's odds, f / (1 - f), grow per unit
-/// of t: a surface 5% weathered at t = 1 is 9.5% weathered at t = 2, one
-/// 37% weathered is 54%. Growth in proportion to the damage there is.
+/// of t: by this alone a surface 5% weathered at t = 1 is 9.5% weathered
+/// at t = 2 (12% with [`MIN_GROWTH`]), one 37% weathered is 54%. Growth in
+/// proportion to the damage there is.
 /// Until stop 45 a fixed 20% of the still-clean surface weathered per unit
 /// of t, whatever the damage: the corroded metal's 5% of small chips grew
 /// into flat orange slabs over a quarter of the surface, and knot holes
@@ -63,8 +64,9 @@ pub const ODDS_GROWTH: f32 = 2.0;
 pub const MIN_GROWTH: f32 = 0.07;
 
 /// The share of the clean surface weathered by time `t` (>= 1) when a
-/// fraction `weathered` of the surface is weathered at t = 1: the larger
-/// of [`ODDS_GROWTH`] and [`MIN_GROWTH`].
+/// fraction `weathered` of the surface is weathered at t = 1: of the two
+/// growths, the odds' ([`ODDS_GROWTH`]) and the least ([`MIN_GROWTH`]),
+/// the larger.
 pub fn clean_share_weathered(weathered: f32, t: f32) -> f32 {
     let f1 = weathered.clamp(0.0, 1.0);
     if f1 >= 1.0 {
@@ -74,6 +76,7 @@ pub fn clean_share_weathered(weathered: f32, t: f32) -> f32 {
     let grown = odds / (1.0 + odds) - f1;
     (grown.max(MIN_GROWTH * (t - 1.0)) / (1.0 - f1)).clamp(0.0, 1.0)
 }
+
 /// Nucleation sites per 64 x 64 px of clean surface.
 pub const NUCLEATION_DENSITY: f32 = 0.25;
 /// How much slower the front crosses a fully coherent structure than it
