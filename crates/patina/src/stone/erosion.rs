@@ -165,11 +165,10 @@ pub fn iterations(object_pixels: usize, epsilon: f32, t: f32) -> usize {
 /// pixel (or b itself when the mirror falls off the background). Every
 /// other pixel of `image` is kept.
 ///
-/// Departure: the paper fills by texture synthesis. The engine's patch
-/// fill, on holes a few pixels wide along a silhouette, averaged its
-/// overlapping candidates into a smooth band of mean colour, a halo around
-/// the stone against foliage. The mirror copies the local background's own
-/// pixels, so leaves stay leaves and sky stays sky right up to the stone.
+/// Copied as it is, the mirror draws symmetric chevrons and bow ties in
+/// grass and foliage; [`synthesize_background`] uses it, blurred, only to
+/// say which colours belong where, and where the engine has too few
+/// source patches.
 pub fn fill_background(image: &Image, background: &Mask, eroded: &Mask) -> Image {
     let (w, h) = image.size();
     let nearest = nearest_set(background);
@@ -187,6 +186,84 @@ pub fn fill_background(image: &Image, background: &Mask, eroded: &Mask) -> Image
         out.pixel_mut(p % w, p / w).copy_from_slice(&source);
     }
     out
+}
+
+/// Width (px) of the band of background beyond the object that the
+/// synthesized fill copies from: wider took in other things' colours (the
+/// table's tan into a black marker beside a statue).
+pub const FILL_SOURCE: usize = 20;
+
+/// Background within this many px of the object is never a source: it
+/// holds the stone's anti-aliased rim, which copied along the hole drew a
+/// ghost of the old outline.
+const RIM_SKIP: usize = 2;
+
+/// Blur (px) of the colour guide ([`synthesize_background`]).
+const GUIDE_SIGMA: f32 = 3.0;
+
+/// Side (px) of the cells the fill works in.
+const FILL_CELL: usize = 64;
+
+/// Fill `hole` (stone the silhouette loses) with background synthesized
+/// by the engine, as the paper fills by texture synthesis: a hole-filling
+/// texture optimization (7 px patches, robust votes, coherent copies kept
+/// verbatim) from the background between [`RIM_SKIP`] and [`FILL_SOURCE`]
+/// px beyond the object, guided (image analogies, weight 1) by the mirror
+/// fill ([`fill_background`]) blurred by [`GUIDE_SIGMA`]: the guide says
+/// which colours belong where (marker black beside the marker, table tan
+/// beside the table), the patches give the texture without the mirror's
+/// chevrons. The hole is a thin band along the outline, so the work goes
+/// cell by cell ([`FILL_CELL`] px, in raster order), each on a crop
+/// reaching [`FILL_SOURCE`] px around it, with the cells filled before it
+/// as fixed context so the band continues across cell borders. A cell
+/// with too few whole source patches takes the mirror. Pixels outside
+/// `hole` are `image`'s.
+pub fn synthesize_background(image: &Image, background: &Mask, hole: &Mask, seed: u64) -> crate::error::Result<Image> {
+    let (w, h) = image.size();
+    let mut out = image.clone();
+    let near_object = Mask::from_fn(w, h, |x, y| !background.get(x, y)).dilate(RIM_SKIP);
+    let mirror = fill_background(image, background, hole);
+    let margin = FILL_SOURCE + 4;
+    let op = crate::synth::OptimizeParams { patch: 7, vote: crate::synth::VoteWeights::Robust, ..Default::default() };
+    for cy in (0..h).step_by(FILL_CELL) {
+        for cx in (0..w).step_by(FILL_CELL) {
+            let (cx1, cy1) = ((cx + FILL_CELL).min(w), (cy + FILL_CELL).min(h));
+            if !(cy..cy1).any(|y| (cx..cx1).any(|x| hole.get(x, y))) {
+                continue;
+            }
+            let (x0, y0) = (cx.saturating_sub(margin), cy.saturating_sub(margin));
+            let (cw, ch) = ((cx1 + margin).min(w) - x0, (cy1 + margin).min(h) - y0);
+            let cell_hole = Mask::from_fn(cw, ch, |x, y| {
+                let (gx, gy) = (x + x0, y + y0);
+                (cx..cx1).contains(&gx) && (cy..cy1).contains(&gy) && hole.get(gx, gy)
+            });
+            let sources = Mask::from_fn(cw, ch, |x, y| background.get(x + x0, y + y0) && !near_object.get(x + x0, y + y0));
+            let synthesized = if sources.erode(3).count() >= 64 && cw >= 16 && ch >= 16 {
+                let crop = out.crop(x0, y0, cw, ch)?;
+                let guide_source = crate::image::filter::gaussian_blur(&crop, GUIDE_SIGMA);
+                let guide_target = crate::image::filter::gaussian_blur(&mirror.crop(x0, y0, cw, ch)?, GUIDE_SIGMA);
+                let mut filled = crate::synth::Synthesis::new(&crop)
+                    .fill(&crop, &cell_hole)
+                    .source_mask(&sources)
+                    .guides(&guide_source, &guide_target, 1.0)
+                    .seed(crate::rng::derive(seed ^ 0xf111, &[cx as u64, cy as u64]))
+                    .optimize(&op)?;
+                filled.coherent_copies(&crop, &cell_hole);
+                Some(filled.image)
+            } else {
+                None
+            };
+            for idx in set_pixels(&cell_hole) {
+                let (x, y) = (idx % cw, idx / cw);
+                let value = match &synthesized {
+                    Some(s) => s.pixel(x, y),
+                    None => mirror.pixel(x + x0, y + y0),
+                };
+                out.pixel_mut(x + x0, y + y0).copy_from_slice(value);
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// For every pixel, the index of the nearest set pixel of `set` (u32::MAX

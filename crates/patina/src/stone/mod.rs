@@ -219,7 +219,7 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
     let grain = Image::from_fn(w, h, 3, |x, y, p| {
         p.iter_mut().zip(rgb.pixel(x, y).iter().zip(base.pixel(x, y))).for_each(|(o, (l, b))| *o = l - b)
     });
-    let borrowing = update::Borrowing::new(&tendency, &grain, (&mask, &sources), (&patches, &offsets), scale);
+    let borrowing = update::Borrowing::new(&tendency, &grain, &mask, (&patches, &offsets), scale);
     Ok(Prepared {
         linear,
         original: rgb,
@@ -292,6 +292,21 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let mut erosion = Erosion::new(&prep.linear, &prep.mask, p.bleed, seed);
     let object_pixels = prep.mask.count();
     let chips = update::chips(w, h, seed);
+    // The background behind everything the silhouette loses by the last
+    // time, synthesized once: erosion only grows, so every frame's rim
+    // takes its fill from the same image and the fill does not flicker.
+    let behind = if erode {
+        let mut last = erosion.clone();
+        let end = erosion::iterations(object_pixels, p.erosion_speed, times[times.len() - 1]);
+        (0..end).for_each(|_| last.step());
+        let lost = Mask::from_fn(w, h, |x, y| prep.mask.get(x, y) && !last.object.get(x, y));
+        let near = lost.dilate(erosion::EDGE_BAND);
+        let hole = Mask::from_fn(w, h, |x, y| prep.mask.get(x, y) && near.get(x, y));
+        let background = Mask::from_fn(w, h, |x, y| !prep.mask.get(x, y));
+        Some(erosion::synthesize_background(&prep.original, &background, &hole, seed)?)
+    } else {
+        None
+    };
     let fade: Option<Vec<f32>> = (p.feather > 0.0).then(|| prep.mask.distance_inside().iter().map(|d| (d / p.feather).min(1.0)).collect());
     let mut done = 0;
     let mut frames = Vec::with_capacity(times.len());
@@ -299,6 +314,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         let weights = prep.borrowing.weights(&prep.mask, (p.k, t), &chips);
         let smoothed = update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.sources), &prep.borrowing)
             .map(|v| v.max(0.0).powf(GAMMA));
+        let smoothed = keep_colour(&smoothed, &prep.linear);
         let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
         let rough = if p.pits { pits::pit(&rough, &prep.tendency, p.k, t, seed) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
@@ -333,8 +349,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
             let eroded = Mask::from_fn(w, h, |x, y| prep.mask.get(x, y) && !object.get(x, y));
             let near = eroded.dilate(erosion::EDGE_BAND);
             let rim = Mask::from_fn(w, h, |x, y| eroded.get(x, y) || (near.get(x, y) && object.get(x, y)));
-            let background = Mask::from_fn(w, h, |x, y| !prep.mask.get(x, y));
-            let filled = erosion::fill_background(&image, &background, &rim);
+            let filled = behind.as_ref().expect("made when eroding");
             let coverage = crate::image::filter::gaussian_blur(&object.to_image(), erosion::EDGE_SIGMA);
             for idx in set_pixels(&rim) {
                 let (x, y) = (idx % w, idx / w);
@@ -353,6 +368,32 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     }
     Ok(frames)
 }
+
+/// The update's luminance with the photo's colour: each pixel of `worn`
+/// becomes the original (linear RGB) scaled by the change of luminance the
+/// wear made, as a change of shading scales the light every channel
+/// reflects. The scale is held within 1/[`MAX_SHADING_GAIN`] to
+/// [`MAX_SHADING_GAIN`] and the rest of the change added equally to every
+/// channel, so a near-black pit turns grey when it lightens instead of
+/// amplifying its faint tint into a coloured dot.
+///
+/// Not in the paper, which updates each channel. Grime in a carving's
+/// hollows, stains and lichen are colour on the stone, not relief: worn
+/// channel by channel they faded towards the stone's prevailing colour,
+/// and the beige grime between a Buddha's curls turned blue-white (a
+/// "frost" in two blind reviews).
+fn keep_colour(worn: &Image, linear: &Image) -> Image {
+    let (a, b) = (luminance(worn), luminance(linear));
+    Image::from_fn(linear.width(), linear.height(), 3, |x, y, px| {
+        let (new, old) = (a.at(x, y, 0).max(0.0), b.at(x, y, 0).max(0.0));
+        let gain = if old > 0.0 { (new / old).clamp(1.0 / MAX_SHADING_GAIN, MAX_SHADING_GAIN) } else { 1.0 };
+        let rest = new - gain * old;
+        px.iter_mut().zip(linear.pixel(x, y)).for_each(|(p, v)| *p = (v * gain + rest).max(0.0))
+    })
+}
+
+/// Largest factor the wear's change of shading scales a pixel's colour by.
+const MAX_SHADING_GAIN: f32 = 4.0;
 
 /// KS distance the contrast step settles for (the tolerance).
 pub const CONTRAST_KS: f32 = 0.05;
