@@ -196,13 +196,13 @@ pub const FILL_SOURCE: usize = 20;
 /// Background within this many px of the object is never a source: it
 /// holds the stone's anti-aliased rim, which copied along the hole drew a
 /// ghost of the old outline.
-const RIM_SKIP: usize = 2;
+pub const RIM_SKIP: usize = 2;
 
 /// Blur (px) of the colour guide ([`synthesize_background`]).
-const GUIDE_SIGMA: f32 = 3.0;
+pub const GUIDE_SIGMA: f32 = 3.0;
 
 /// Side (px) of the cells the fill works in.
-const FILL_CELL: usize = 64;
+pub const FILL_CELL: usize = 64;
 
 /// Fill `hole` (stone the silhouette loses) with background synthesized
 /// by the engine, as the paper fills by texture synthesis: a hole-filling

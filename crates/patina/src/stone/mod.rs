@@ -4,8 +4,10 @@
 //! ([`tendency`]), patches from a graph segmentation of it ([`segment`]),
 //! smoothing by borrowing calmer patches' Laplacians and solving Poisson
 //! problems ([`update`]), fractal roughening learned from a rough-stone
-//! sample ([`roughen`]), silhouette erosion ([`erosion`]) and a final
-//! luminance histogram match to the original. Work is in linear light
+//! sample ([`roughen`]), silhouette erosion with the background behind
+//! it synthesized by the engine ([`erosion`]) and a final luminance
+//! histogram match to the original. The wear changes shading, not colour
+//! (`keep_colour`). Work is in linear light
 //! (gamma 2.2, as the paper), frames are returned in sRGB-like gamma 2.2.
 //!
 //! ```no_run

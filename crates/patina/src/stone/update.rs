@@ -216,9 +216,8 @@ pub const WEIGHT_SIGMA: f32 = 2.0;
 /// of its own and its patch's match (eq. 1's offset; where the shifted
 /// pixels are off `sources`, the object proper without its rim, its own is
 /// kept) on every edge inside `object`, and the relief is integrated from
-/// it; the finest band is blended the same way pixel by pixel,
-/// F_t(x) = w F_0(x) + sqrt(1 - w^2) g F_0(x + c1 - c0), with the gain g
-/// of [`grain_gains`]. Returns B_t + F_t.
+/// it; the finest band F keeps its grain and loses what stands above it
+/// as w ([`GrainLevels`]). Returns B_t + F_t.
 ///
 /// Departures from the paper, as issue 19 allows:
 /// - The paper re-solves each patch on its own with its border fixed to
@@ -236,10 +235,9 @@ pub const WEIGHT_SIGMA: f32 = 2.0;
 ///   (in p0 only) still fades as w. The form below the patch scale is
 ///   in both and could gain up to sqrt 2 where 0 < w < 1, but the chipped
 ///   weights are 0 or 1 almost everywhere.
-/// - The finest band is not integrated: a least-squares solve of borrowed
-///   grain from many patches smeared it into swirls. Composited per pixel,
-///   it stays crisp; the grain of neighbouring patches is uncorrelated
-///   noise either way, so no outline shows where the offset changes.
+/// - The finest band is not borrowed, nor integrated (a least-squares
+///   solve of borrowed grain smeared it into swirls): it is worn pixel by
+///   pixel where it stands above the stone's grain ([`GrainLevels`]).
 ///
 /// w = 1 (t = 0) reproduces the input exactly.
 pub fn update((base, fine): (&Image, &Image), weights: &Image, (object, sources): (&Mask, &Mask), borrowing: &Borrowing) -> Image {
