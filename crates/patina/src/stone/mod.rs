@@ -294,6 +294,10 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let mut erosion = Erosion::new(&prep.linear, &prep.mask, p.bleed, seed);
     let object_pixels = prep.mask.count();
     let chips = update::chips(w, h, seed);
+    // Roughening and pits follow the tendency where the photo is sharp
+    // ([`update::Borrowing::sharpness`]).
+    let sharpness = prep.borrowing.sharpness();
+    let focused = Image::from_fn(w, h, 1, |x, y, p| p[0] = prep.tendency.at(x, y, 0) * sharpness.at(x, y, 0));
     // The background behind everything the silhouette loses by the last
     // time, synthesized once: erosion only grows, so every frame's rim
     // takes its fill from the same image and the fill does not flicker.
@@ -317,8 +321,8 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         let smoothed = update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.sources), &prep.borrowing)
             .map(|v| v.max(0.0).powf(GAMMA));
         let smoothed = keep_colour(&smoothed, &prep.linear);
-        let rough = if p.roughen { roughen::roughen(&smoothed, &prep.tendency, &fractal, p.nu, p.k, t) } else { smoothed };
-        let rough = if p.pits { pits::pit(&rough, &prep.tendency, p.k, t, seed) } else { rough };
+        let rough = if p.roughen { roughen::roughen(&smoothed, &focused, &fractal, p.nu, p.k, t) } else { smoothed };
+        let rough = if p.pits { pits::pit(&rough, &focused, p.k, t, seed) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
         if erode {
             let target = erosion::iterations(object_pixels, p.erosion_speed, t);

@@ -134,6 +134,16 @@ impl Borrowing {
         Borrowing { offset, grain: GrainLevels::new(fine, patches, scale), local_tendency, scale }
     }
 
+    /// Per pixel, how sharp the photo's grain is there: the grain level over
+    /// the object's typical one, at most 1 (0 off the object). Low where the
+    /// photo is out of focus (a statue's far side), whose grain is blurred:
+    /// roughening and pits are scaled by it, so they do not sprinkle
+    /// pixel-sharp speckle over a soft part of the photo.
+    pub fn sharpness(&self) -> Image {
+        let typical = self.grain.typical.max(1e-6);
+        self.grain.level.map(|v| (v / typical).clamp(0.0, 1.0))
+    }
+
     /// Per-pixel weights of eq. (2), w = exp(-k d_p t), chipped by
     /// `chips` ([`chips`]), 1 off `object`.
     ///
@@ -333,6 +343,8 @@ pub const AMPLITUDE_SIGMA: f32 = 1.0;
 struct GrainLevels {
     amplitude: Image,
     level: Image,
+    /// The object's typical level: the median over its patches.
+    typical: f32,
 }
 
 impl GrainLevels {
@@ -368,7 +380,7 @@ impl GrainLevels {
                 weight.data_mut()[p as usize] = 1.0;
             }
         }
-        GrainLevels { amplitude, level: local_mean(&map, &weight, (scale / 2.0).max(1.0), 0.0) }
+        GrainLevels { amplitude, level: local_mean(&map, &weight, (scale / 2.0).max(1.0), 0.0), typical }
     }
 
     /// The share of the finest band a pixel at weight `wt` keeps.
@@ -525,5 +537,29 @@ mod tests {
         // exp(-0.01 * 0.25 * 200) = 0.61 of the calm pixels kept, exp(-2) of the busy.
         assert!((0.45..0.8).contains(&calm), "calm stone kept {calm:.2}");
         assert!(busy < calm - 0.3, "busy stone kept {busy:.2}, calm {calm:.2}");
+    }
+
+    /// Where the photo's grain is blurred (out of focus), the sharpness
+    /// that roughening and pits are scaled by is low.
+    #[test]
+    fn sharpness_is_low_where_the_grain_is_blurred() {
+        let (_, d, mask, patches, offsets) = relief();
+        let noise = |x: usize, y: usize| (crate::rng::derive(3, &[x as u64, y as u64]) >> 40) as f32 / (1u64 << 24) as f32 - 0.5;
+        let sharp = Image::from_fn(96, 64, 3, |x, y, p| p.fill(0.2 * noise(x, y)));
+        let soft = gaussian_blur(&sharp, 1.5);
+        // A blurred left third of a sharp object.
+        let fine = Image::from_fn(96, 64, 3, |x, y, p| p.copy_from_slice(if x < 32 { soft.pixel(x, y) } else { sharp.pixel(x, y) }));
+        let sharpness = Borrowing::new(&d, &fine, &mask, (&patches, &offsets), 12.0).sharpness();
+        let mean = |xs: std::ops::Range<usize>| {
+            let n = xs.len() * 48;
+            xs.flat_map(|x| (8..56).map(move |y| (x, y))).map(|(x, y)| sharpness.at(x, y, 0)).sum::<f32>() / n as f32
+        };
+        let (blurred, sharpest) = (mean(2..24), mean(44..92));
+        eprintln!("sharpness: blurred {blurred:.2}, sharp {sharpest:.2}");
+        assert!(sharpest > 0.9 && blurred < 0.6, "sharp {sharpest:.2}, blurred {blurred:.2}");
+        // A photo sharp all over is sharp everywhere.
+        let all = Borrowing::new(&d, &sharp, &mask, (&patches, &offsets), 12.0).sharpness();
+        let low = (0..96 * 64).map(|i| all.data()[i]).fold(1f32, f32::min);
+        assert!(low > 0.7, "a uniformly sharp photo reads {low:.2} somewhere");
     }
 }
