@@ -325,9 +325,12 @@ pub const AMPLITUDE_SIGMA: f32 = 1.0;
 /// strong pixels and keeps its level, a lone strong grain is diluted by its
 /// neighbours. Measured per pixel, the clip cut every edge into a dotted
 /// line of pixels above and below it (salt-and-pepper rings around the
-/// Buddha's curls). The grain level g(x) is each patch's median of a,
-/// averaged over a Gaussian of half the patch size so that no patch
-/// outline shows; the median is robust to the carved edges a patch holds.
+/// Buddha's curls). The grain level g(x) is each patch's median of a, at
+/// most the object's typical level (the median over its patches: in the
+/// busy hair, where carved edges are most of every patch, a patch's own
+/// median kept the curls at t = 200), averaged over a Gaussian of half the
+/// patch size so that no patch outline shows; the median is robust to the
+/// carved edges a patch holds.
 /// With tau = [`GRAIN_THRESHOLD`] g, a pixel at weight w keeps
 /// (tau + w (a - tau)) / a of its finest band where a > tau, all of it
 /// elsewhere: the grain stays at full strength (the issue's "stone grain
@@ -352,26 +355,9 @@ impl GrainLevels {
         let (w, h, c) = (fine.width(), fine.height(), fine.channels());
         let energy = Image::from_fn(w, h, 1, |x, y, p| p[0] = fine.pixel(x, y).iter().map(|v| v * v).sum::<f32>() / c as f32);
         let amplitude = crate::image::filter::gaussian_blur(&energy, AMPLITUDE_SIGMA).map(|v| v.max(0.0).sqrt());
-        let levels: Vec<f32> = patches
-            .par_iter()
-            .map(|patch| {
-                let mut v: Vec<f32> = patch.pixels.iter().map(|&p| amplitude.data()[p as usize]).collect();
-                if v.is_empty() {
-                    return 0.0;
-                }
-                let mid = v.len() / 2;
-                *v.select_nth_unstable_by(mid, f32::total_cmp).1
-            })
-            .collect();
-        let typical = {
-            let mut v = levels.clone();
-            let mid = v.len() / 2;
-            if v.is_empty() {
-                0.0
-            } else {
-                *v.select_nth_unstable_by(mid, f32::total_cmp).1
-            }
-        };
+        let levels: Vec<f32> =
+            patches.par_iter().map(|patch| median(patch.pixels.iter().map(|&p| amplitude.data()[p as usize]).collect())).collect();
+        let typical = median(levels.clone());
         let mut map = Image::new(w, h, 1);
         let mut weight = Image::new(w, h, 1);
         for (patch, &level) in patches.iter().zip(&levels) {
@@ -394,6 +380,17 @@ impl GrainLevels {
     }
 }
 
+/// The upper median of `values` (the element at index len / 2 in sorted
+/// order), 0 when there are none.
+fn median(mut values: Vec<f32>) -> f32 {
+    let mid = values.len() / 2;
+    if values.is_empty() {
+        0.0
+    } else {
+        *values.select_nth_unstable_by(mid, f32::total_cmp).1
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -413,6 +410,17 @@ mod tests {
         let patches = segment(&d, &mask, &SegmentParams { n: 24.0, ..Default::default() });
         let offsets = patches.iter().map(|p| if p.centroid.0 >= 48.0 { (-48isize, 0isize) } else { (0, 0) }).collect();
         (img, d, mask, patches, offsets)
+    }
+
+    /// Hashed noise, uniform in [-1/2, 1/2).
+    fn noise(seed: u64, x: usize, y: usize) -> f32 {
+        (crate::rng::derive(seed, &[x as u64, y as u64]) >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+    }
+
+    /// The mean of a one-channel image over columns `xs` and rows 8..56.
+    fn column_mean(img: &Image, xs: std::ops::Range<usize>) -> f32 {
+        let n = xs.len() * 48;
+        xs.flat_map(|x| (8..56).map(move |y| (x, y))).map(|(x, y)| img.at(x, y, 0)).sum::<f32>() / n as f32
     }
 
     #[test]
@@ -490,9 +498,8 @@ mod tests {
     #[test]
     fn worn_stone_keeps_its_own_grain_and_loses_its_carved_edges() {
         let (w, h) = (96, 64);
-        let noise = |x: usize, y: usize| (crate::rng::derive(7, &[x as u64, y as u64]) >> 40) as f32 / (1u64 << 24) as f32 - 0.5;
         let img = Image::from_fn(w, h, 3, |x, y, p| {
-            let grain = if x >= 48 { 0.16 } else { 0.04 } * noise(x, y);
+            let grain = if x >= 48 { 0.16 } else { 0.04 } * noise(7, x, y);
             let line = if (72..74).contains(&x) { -0.4 } else { 0.0 };
             p.fill(0.5 + grain + line);
         });
@@ -529,11 +536,7 @@ mod tests {
         let (img, d, mask, patches, offsets) = relief();
         let borrowing = Borrowing::new(&d.map(|v| if v < 0.5 { 0.0 } else { v }), &img.map(|_| 0.0), &mask, (&patches, &offsets), 12.0);
         let weights = borrowing.weights(&mask, (0.01, 200.0), &chips(96, 64, 4));
-        let mean = |xs: std::ops::Range<usize>| {
-            let n = xs.len() * 48;
-            xs.flat_map(|x| (8..56).map(move |y| (x, y))).map(|(x, y)| weights.at(x, y, 0)).sum::<f32>() / n as f32
-        };
-        let (calm, busy) = (mean(4..40), mean(56..92));
+        let (calm, busy) = (column_mean(&weights, 4..40), column_mean(&weights, 56..92));
         // exp(-0.01 * 0.25 * 200) = 0.61 of the calm pixels kept, exp(-2) of the busy.
         assert!((0.45..0.8).contains(&calm), "calm stone kept {calm:.2}");
         assert!(busy < calm - 0.3, "busy stone kept {busy:.2}, calm {calm:.2}");
@@ -544,17 +547,12 @@ mod tests {
     #[test]
     fn sharpness_is_low_where_the_grain_is_blurred() {
         let (_, d, mask, patches, offsets) = relief();
-        let noise = |x: usize, y: usize| (crate::rng::derive(3, &[x as u64, y as u64]) >> 40) as f32 / (1u64 << 24) as f32 - 0.5;
-        let sharp = Image::from_fn(96, 64, 3, |x, y, p| p.fill(0.2 * noise(x, y)));
+        let sharp = Image::from_fn(96, 64, 3, |x, y, p| p.fill(0.2 * noise(3, x, y)));
         let soft = gaussian_blur(&sharp, 1.5);
         // A blurred left third of a sharp object.
         let fine = Image::from_fn(96, 64, 3, |x, y, p| p.copy_from_slice(if x < 32 { soft.pixel(x, y) } else { sharp.pixel(x, y) }));
         let sharpness = Borrowing::new(&d, &fine, &mask, (&patches, &offsets), 12.0).sharpness();
-        let mean = |xs: std::ops::Range<usize>| {
-            let n = xs.len() * 48;
-            xs.flat_map(|x| (8..56).map(move |y| (x, y))).map(|(x, y)| sharpness.at(x, y, 0)).sum::<f32>() / n as f32
-        };
-        let (blurred, sharpest) = (mean(2..24), mean(44..92));
+        let (blurred, sharpest) = (column_mean(&sharpness, 2..24), column_mean(&sharpness, 44..92));
         eprintln!("sharpness: blurred {blurred:.2}, sharp {sharpest:.2}");
         assert!(sharpest > 0.9 && blurred < 0.6, "sharp {sharpest:.2}, blurred {blurred:.2}");
         // A photo sharp all over is sharp everywhere.
