@@ -59,6 +59,8 @@ fn main() {
         settings.push(("no-jitter".into(), TtfParams { jitter: Some(0.0), ..d.clone() }));
         settings.push(("no-blend".into(), TtfParams { quilt: QuiltParams { blend: false, ..d.quilt.clone() }, ..d.clone() }));
         settings.push(("keep-light".into(), TtfParams { lighting: SequenceLighting::Keep, ..d.clone() }));
+        settings.push(("no-reuse".into(), TtfParams { quilt: QuiltParams { reuse: 0.0, ..d.quilt.clone() }, ..d.clone() }));
+        settings.push(("no-balance".into(), TtfParams { balance: false, ..d.clone() }));
     }
     // TTF_TRY="BLOCK,OVERLAP;..." adds default settings with those sizes.
     for spec in std::env::var("TTF_TRY").unwrap_or_default().split(';').filter(|s| !s.is_empty()) {

@@ -358,3 +358,37 @@ fn a_captures_exposure_flicker_does_not_become_a_patchwork() {
         assert!(ns < 1.3 * ns_calm, "frame {t}: large-scale variation {ns:.4}, from the steady capture {ns_calm:.4}");
     }
 }
+
+#[test]
+fn a_fast_change_of_the_whole_surface_is_not_shown_as_a_patchwork_of_times() {
+    // Rust spots on steel, and over frames 12-20 the whole plate takes a
+    // teal tint, each frame's colour 1.6% (RMS) from the last: about 6x the
+    // mean pace of the rust (copper_patinating's first frames change at
+    // 2-5x theirs).
+    let n = 48;
+    let tint = [0.25f32, 0.55, 0.5];
+    let input: Vec<Image> = rusting_timelapse(96, 96, n, 4)
+        .into_iter()
+        .enumerate()
+        .map(|(t, f)| {
+            let s = 0.6 * ((t as f32 - 12.0) / 8.0).clamp(0.0, 1.0);
+            Image::from_fn(96, 96, 3, |x, y, p| (0..3).for_each(|c| p[c] = f.at(x, y, c) * (1.0 - s) + s * tint[c]))
+        })
+        .collect();
+    let params = TtfParams::default();
+    let jitter = params.jitter_frames(n);
+    for seed in [1, 2, 3] {
+        let out = run(&input, (192, 192), &params, None, seed);
+        // The largest offset of any block from the output's time.
+        let offset = |t: usize| out.warps.iter().map(|w| (w.at(t as f32).round() - t as f32).abs()).fold(0f32, f32::max);
+        // Inside the tint change, no block is more than 2 frames (a colour
+        // step of about 3%) off the output's time. Blocks were up to E = 4
+        // frames off: plain and tinted plate side by side.
+        for t in 15..18 {
+            assert!(offset(t) <= 2.0, "seed {seed}, frame {t}: a block is {} frames off", offset(t));
+        }
+        // Where the change is steady again, the jitter keeps its range.
+        let later = (30..44).map(offset).fold(0f32, f32::max);
+        assert!(later >= jitter.round() - 1.0, "seed {seed}: blocks are at most {later} frames off after the change");
+    }
+}

@@ -107,12 +107,6 @@ impl TimeWarp {
         TimeWarp(pace.iter().map(|&p| inverse(self.at(p))).collect())
     }
 
-    /// This warp at whole frames over `n` frames: f(t) rounded, as
-    /// rendering shows it.
-    fn rounded(&self, n: usize) -> TimeWarp {
-        TimeWarp((0..n).map(|t| self.at(t as f32).round()).collect())
-    }
-
     /// The frame shown at output frame t (f(t) rounded, within the warp).
     fn shown(&self, t: usize) -> usize {
         self.at(t as f32).round() as usize
@@ -169,6 +163,55 @@ impl TimeWarp {
     }
 }
 
+/// Which time offsets keep a block's colour: entry t * (2 band + 1) + d +
+/// band says whether frame t + d exists and showing it at output frame t
+/// changes the frames' block-sized cell means by at most [`VISIBLE_STEP`]
+/// (the mean over cells of their RMS change over channels). Where the whole surface
+/// changes colour fast (copper_patinating's first frames), a block drawn a
+/// few frames off shows another colour than its neighbours, a patchwork of
+/// times; the seam alignment alone let blocks sit the full E frames off
+/// there, since its colour cost is relative to the best offset at each
+/// frame and neighbours can lag together. Events smaller than a block (a
+/// spot appearing) barely move a cell's mean, so their times stay free.
+/// Tried first: eq. 7's band on the pace clock, which also tied the times
+/// of a sequence whose few events are its only change.
+fn colour_keeping_offsets(frames: &[Image], (bw, bh): (usize, usize), band: usize) -> Vec<bool> {
+    let n = frames.len();
+    let (w, h) = frames[0].size();
+    let c = frames[0].channels();
+    let (cw, ch) = (w.div_ceil(bw), h.div_ceil(bh));
+    let means: Vec<Vec<f32>> = frames
+        .par_iter()
+        .map(|f| {
+            let mut m = vec![0f32; cw * ch * c];
+            let mut k = vec![0f32; cw * ch];
+            for y in 0..h {
+                for x in 0..w {
+                    let i = (y / bh) * cw + x / bw;
+                    k[i] += 1.0;
+                    m[i * c..][..c].iter_mut().zip(f.pixel(x, y)).for_each(|(s, v)| *s += v);
+                }
+            }
+            m.chunks_exact_mut(c).zip(&k).for_each(|(m, k)| m.iter_mut().for_each(|v| *v /= k));
+            m
+        })
+        .collect();
+    let states = 2 * band + 1;
+    (0..n * states)
+        .into_par_iter()
+        .map(|i| {
+            let (t, u) = (i / states, (i / states + i % states) as isize - band as isize);
+            let Some(other) = usize::try_from(u).ok().and_then(|u| means.get(u)) else { return false };
+            let step: f32 = means[t]
+                .chunks_exact(c)
+                .zip(other.chunks_exact(c))
+                .map(|(a, b)| (a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f32>() / c as f32).sqrt())
+                .sum();
+            step / (cw * ch) as f32 <= VISIBLE_STEP
+        })
+        .collect()
+}
+
 /// One warp per placement of `plan` (in plan order), within `jitter`
 /// frames of the identity over the `frames`' time.
 ///
@@ -202,6 +245,7 @@ pub fn seam_aligned(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32
     let c = frames[0].channels();
     let domain = pace.last().map_or(n, |&p| p.ceil() as usize + 1);
     let states = 2 * band + 1;
+    let keeps_colour = colour_keeping_offsets(frames, (bw, bh), band);
     let mut owner = vec![u32::MAX; w * h];
     let mut warps: Vec<TimeWarp> = Vec::with_capacity(plan.placements.len());
     for (i, p) in plan.placements.iter().enumerate() {
@@ -231,7 +275,16 @@ pub fn seam_aligned(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32
             .filter(|px| !px.is_empty())
             .collect();
         let warp = if cells.is_empty() {
-            target.rounded(n)
+            // Nothing to keep step with: the block's own warp, kept to the
+            // offsets that keep its colour.
+            TimeWarp::viterbi(n, band, |t, s| {
+                let d = s as f32 - band as f32;
+                if keeps_colour[t * states + s] {
+                    (d - (target.at(t as f32) - t as f32)).abs() / band as f32
+                } else {
+                    f32::INFINITY
+                }
+            })
         } else {
             let means = |theirs: bool| -> Vec<f32> {
                 // [cell][frame][channel]
@@ -287,6 +340,9 @@ pub fn seam_aligned(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32
             let unary = |t: usize, s: usize| {
                 let d = s as f32 - band as f32;
                 let shown = t as isize + s as isize - band as isize;
+                if !keeps_colour[t * states + s] {
+                    return f32::INFINITY;
+                }
                 let same: f32 = copies.iter().filter(|(j, _)| warps[*j].shown(t) as isize == shown).map(|(_, share)| share).sum();
                 mismatch[t * states + s] + (d - (target.at(t as f32) - t as f32)).abs() / band as f32 + COPY_COST * same
             };
