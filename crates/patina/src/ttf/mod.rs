@@ -463,18 +463,16 @@ const KEY_STEP: usize = 8;
 
 /// The input's pace for time jitter: each frame's time on a clock that
 /// runs one unit per frame while the sequence changes at its average pace
-/// or slower, and faster while it changes faster: r^2 units for a frame
-/// whose change is r > 1 times the mean change per frame. Jitter of E
-/// units on this clock is at most E frames, and less where the whole
-/// surface changes at once (copper turning green in three frames), where
-/// blocks drawn from different times would differ everywhere
-/// ([`warp::seam_aligned`] keeps blocks within that band). The square:
-/// steady change is many small events scattered over the surface, so a
-/// block a few frames off shows other events but the same colour, while
-/// a fast change is one coherent change of colour, so the same amount of
-/// change between neighbours is seen as a step. With r (linear),
-/// copper_patinating's frame 5 (r = 1.9) still showed a dark slate block
-/// of frame 1 among pink ones.
+/// or slower, and faster while it changes faster (the accumulated change
+/// in units of the mean change per frame, each frame counting at least
+/// one). Each block's random warp (eqs. 6-7) is drawn on this clock, so it
+/// drifts less where the whole surface changes at once (copper turning
+/// green in three frames); [`warp::seam_aligned`] then also keeps every
+/// block to the offsets that keep its colour there. Tried: r^2 units for a
+/// frame changing r times the mean; with the colour band it moved
+/// copper_patinating's and rusting_steel's block-scale colour differences
+/// from the jitter-free output by at most 0.3 points (of 0-5%), so the
+/// clock stays linear.
 pub fn pace(frames: &[Image]) -> Vec<f32> {
     clock(&frame_changes(frames))
 }
