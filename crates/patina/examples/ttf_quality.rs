@@ -9,6 +9,10 @@
 //! - seams: how much worse the output's patches are on the cuts between
 //!   blocks than inside them, at the first frame, 10% in and the middle
 //!   (see `cut_lines`; 0 = invisible cuts);
+//! - brightness: the output's mean luminance over the input frame's at the
+//!   same time, at frames 1/4, 1/2, 3/4 and the last in (the mix of
+//!   materials kept over time: more rust or leaves than the input's shows
+//!   as a lower or higher ratio);
 //! - time and frames.
 //!
 //!     cargo run --release -p patina --example ttf_quality [OUT_DIR]
@@ -61,6 +65,7 @@ fn main() {
         settings.push(("keep-light".into(), TtfParams { lighting: SequenceLighting::Keep, ..d.clone() }));
         settings.push(("no-reuse".into(), TtfParams { quilt: QuiltParams { reuse: 0.0, ..d.quilt.clone() }, ..d.clone() }));
         settings.push(("no-balance".into(), TtfParams { balance: false, ..d.clone() }));
+        settings.push(("families".into(), TtfParams { quilt: QuiltParams { families: 1.0, ..d.quilt.clone() }, ..d.clone() }));
     }
     // TTF_TRY="BLOCK,OVERLAP;..." adds default settings with those sizes.
     for spec in std::env::var("TTF_TRY").unwrap_or_default().split(';').filter(|s| !s.is_empty()) {
@@ -71,16 +76,16 @@ fn main() {
         settings.push((format!("b{}o{}", v[0], v[1]), p));
     }
     println!(
-        "| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | seams first / f2 / 10% / mid | lighting | time s |"
+        "| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | seams first / f2 / 10% / mid | brightness 1/4 1/2 3/4 last | lighting | time s |"
     );
-    println!("|---|---|---:|---:|---:|---:|---|---|---:|");
+    println!("|---|---|---:|---:|---:|---:|---|---:|---|---:|");
     for (name, frames) in &sequences {
         let (w, h) = frames[0].size();
         let n = frames.len();
         let (g_mid, g_last) = (grid_peak(&frames[n / 2]), grid_peak(&frames[n - 1]));
         let f_in = flicker(frames);
         let rep_in = repeated_share(&frames[n / 2], 9, 16, 1).expect("repeats");
-        println!("| {name} {w}x{h}x{n} | input | 1 | 1 | {rep_in:.3} | 1 | {:.3} | |", input_nonstationarity(frames).expect("frames"));
+        println!("| {name} {w}x{h}x{n} | input | 1 | 1 | {rep_in:.3} | 1 | {:.3} | 0 | |", input_nonstationarity(frames).expect("frames"));
         for (label, params) in &settings {
             let start = Instant::now();
             let out = synthesize(frames, (2 * w, 2 * h), params, None, 1, None).expect("synthesize");
@@ -98,12 +103,19 @@ fn main() {
                     format!("{:.2} {:.2}", (on - off) / own.max(1e-6), tone_steps(&o[t], &cuts, &interior))
                 })
                 .collect();
+            let lum = |f: &Image| {
+                let l = patina::image::color::luminance(f);
+                l.data().iter().map(|&v| f64::from(v)).sum::<f64>() / l.data().len() as f64
+            };
+            let drift: Vec<String> =
+                [n / 4, n / 2, 3 * n / 4, n - 1].iter().map(|&t| format!("{:.2}", lum(&o[t]) / lum(&frames[t]))).collect();
             println!(
-                "| {name} | {label} | {:.2} | {:.2} | {rep:.3} | {:.2} | {} | {} | {secs:.1} |",
+                "| {name} | {label} | {:.2} | {:.2} | {rep:.3} | {:.2} | {} | {} | {} | {secs:.1} |",
                 grid_peak(&o[n / 2]) / g_mid,
                 grid_peak(&o[n - 1]) / g_last,
                 flicker(o) / f_in,
                 seams.join(" / "),
+                drift.join(" "),
                 if out.lighting.is_some() { "split" } else { "kept" },
             );
             if let Some(d) = &out_dir {
