@@ -166,12 +166,12 @@ impl TimeWarp {
 /// Which time offsets keep a block's colour: entry t * (2 band + 1) + d +
 /// band says whether frame t + d exists and showing it at output frame t
 /// changes the frames' block-sized cell means by at most [`VISIBLE_STEP`]
-/// (the mean over cells of their RMS change over channels). Where the whole surface
-/// changes colour fast (copper_patinating's first frames), a block drawn a
-/// few frames off shows another colour than its neighbours, a patchwork of
-/// times; the seam alignment alone let blocks sit the full E frames off
-/// there, since its colour cost is relative to the best offset at each
-/// frame and neighbours can lag together. Events smaller than a block (a
+/// (the mean over cells of their RMS change over channels). Where the
+/// whole surface changes colour fast (copper_patinating's first frames),
+/// a block drawn a few frames off shows another colour than its
+/// neighbours, a patchwork of times; the seam alignment alone let blocks
+/// sit the full E frames off there, since its colour cost is relative to
+/// the best offset at each frame and neighbours can lag together. Events smaller than a block (a
 /// spot appearing) barely move a cell's mean, so their times stay free.
 /// Tried first: eq. 7's band on the pace clock, which also tied the times
 /// of a sequence whose few events are its only change.
@@ -232,8 +232,11 @@ fn colour_keeping_offsets(frames: &[Image], (bw, bh): (usize, usize), band: usiz
 /// times, taken relative to the best offset at t; and d* is the random
 /// warp's offset. Where nothing changes across the seam every offset
 /// matches and the block keeps its own timing; where a spot grows across
-/// it, the block falls into step. Offsets are whole frames, as rendering
-/// rounds jittered times (so the choice is made on what is shown).
+/// it, the block falls into step. Offsets that would change the colour of
+/// the whole frame visibly (block-sized cell means moving by over
+/// VISIBLE_STEP, 4%, on average) are not allowed at all. Offsets are whole
+/// frames, as rendering rounds jittered times (so the choice is made on
+/// what is shown).
 pub fn seam_aligned(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32], seed: u64) -> Vec<TimeWarp> {
     let n = frames.len();
     let band = jitter.round() as usize;
@@ -276,7 +279,8 @@ pub fn seam_aligned(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32
             .collect();
         let warp = if cells.is_empty() {
             // Nothing to keep step with: the block's own warp, kept to the
-            // offsets that keep its colour.
+            // offsets that keep its colour (and, like every block's, made
+            // with the change cost).
             TimeWarp::viterbi(n, band, |t, s| {
                 let d = s as f32 - band as f32;
                 if keeps_colour[t * states + s] {
