@@ -478,16 +478,15 @@ const KEY_STEP: usize = 8;
 
 /// The input's pace for time jitter: each frame's time on a clock that
 /// runs one unit per frame while the sequence changes at its average pace
-/// or slower, and faster while it changes faster (the accumulated change
-/// in units of the mean change per frame, each frame counting at least
-/// one). Each block's random warp (eqs. 6-7) is drawn on this clock, so it
-/// drifts less where the whole surface changes at once (copper turning
-/// green in three frames); [`warp::seam_aligned`] then also keeps every
-/// block to the offsets that keep its colour there. Tried: r^2 units for a
-/// frame changing r times the mean; with the colour band it moved
-/// copper_patinating's and rusting_steel's block-scale colour differences
-/// from the jitter-free output by at most 0.3 points (of 0-5%), so the
-/// clock stays linear.
+/// or slower, and faster while it changes faster: r^2 units for a frame
+/// whose change to the next is r > 1 times the mean change per frame. Each
+/// block's random warp (eqs. 6-7) is drawn on this clock, so it drifts
+/// less where the whole surface changes at once (copper turning green in
+/// three frames); [`warp::seam_aligned`] then also keeps every block to
+/// the offsets that keep its colour there. With that colour band, the
+/// square and a linear clock (r units) give block-scale colour differences
+/// from the jitter-free output within 0.3 points (of 0-5%) of each other
+/// on copper_patinating and rusting_steel.
 pub fn pace(frames: &[Image]) -> Vec<f32> {
     clock(&frame_changes(frames))
 }
