@@ -171,8 +171,9 @@ impl TimeWarp {
 /// a block drawn a few frames off shows another colour than its
 /// neighbours, a patchwork of times; the seam alignment alone let blocks
 /// sit the full E frames off there, since its colour cost is relative to
-/// the best offset at each frame and neighbours can lag together. Events smaller than a block (a
-/// spot appearing) barely move a cell's mean, so their times stay free.
+/// the best offset at each frame and neighbours can lag together. Events
+/// smaller than a block (a spot appearing) barely move a cell's mean, so
+/// their times stay free.
 /// Tried first: eq. 7's band on the pace clock, which also tied the times
 /// of a sequence whose few events are its only change.
 fn colour_keeping_offsets(frames: &[Image], (bw, bh): (usize, usize), band: usize) -> Vec<bool> {
@@ -277,18 +278,19 @@ pub fn seam_aligned(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32
             })
             .filter(|px| !px.is_empty())
             .collect();
+        // The cost of offset d (state s = d + band) at t for leaving the
+        // block's own random warp; offsets that change the colour are out.
+        let own = |t: usize, s: usize| {
+            if keeps_colour[t * states + s] {
+                (s as f32 - band as f32 - (target.at(t as f32) - t as f32)).abs() / band as f32
+            } else {
+                f32::INFINITY
+            }
+        };
         let warp = if cells.is_empty() {
-            // Nothing to keep step with: the block's own warp, kept to the
-            // offsets that keep its colour (and, like every block's, made
-            // with the change cost).
-            TimeWarp::viterbi(n, band, |t, s| {
-                let d = s as f32 - band as f32;
-                if keeps_colour[t * states + s] {
-                    (d - (target.at(t as f32) - t as f32)).abs() / band as f32
-                } else {
-                    f32::INFINITY
-                }
-            })
+            // Nothing to keep step with: the block's own warp (made, like
+            // every block's, with the change cost).
+            TimeWarp::viterbi(n, band, own)
         } else {
             let means = |theirs: bool| -> Vec<f32> {
                 // [cell][frame][channel]
@@ -342,13 +344,9 @@ pub fn seam_aligned(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32
                 })
                 .collect();
             let unary = |t: usize, s: usize| {
-                let d = s as f32 - band as f32;
                 let shown = t as isize + s as isize - band as isize;
-                if !keeps_colour[t * states + s] {
-                    return f32::INFINITY;
-                }
                 let same: f32 = copies.iter().filter(|(j, _)| warps[*j].shown(t) as isize == shown).map(|(_, share)| share).sum();
-                mismatch[t * states + s] + (d - (target.at(t as f32) - t as f32)).abs() / band as f32 + COPY_COST * same
+                mismatch[t * states + s] + own(t, s) + COPY_COST * same
             };
             TimeWarp::viterbi(n, band, unary)
         };
