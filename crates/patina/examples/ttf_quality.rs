@@ -78,14 +78,14 @@ fn main() {
     println!(
         "| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | seams first / f2 / 10% / mid | brightness 1/4 1/2 3/4 last | lighting | time s |"
     );
-    println!("|---|---|---:|---:|---:|---:|---|---:|---|---:|");
+    println!("|---|---|---:|---:|---:|---:|---|---|---|---:|");
     for (name, frames) in &sequences {
         let (w, h) = frames[0].size();
         let n = frames.len();
         let (g_mid, g_last) = (grid_peak(&frames[n / 2]), grid_peak(&frames[n - 1]));
         let f_in = flicker(frames);
         let rep_in = repeated_share(&frames[n / 2], 9, 16, 1).expect("repeats");
-        println!("| {name} {w}x{h}x{n} | input | 1 | 1 | {rep_in:.3} | 1 | {:.3} | 0 | |", input_nonstationarity(frames).expect("frames"));
+        println!("| {name} {w}x{h}x{n} | input | 1 | 1 | {rep_in:.3} | 1 | {:.3} | 1 | |", input_nonstationarity(frames).expect("frames"));
         for (label, params) in &settings {
             let start = Instant::now();
             let out = synthesize(frames, (2 * w, 2 * h), params, None, 1, None).expect("synthesize");
@@ -107,7 +107,7 @@ fn main() {
                 let l = patina::image::color::luminance(f);
                 l.data().iter().map(|&v| f64::from(v)).sum::<f64>() / l.data().len() as f64
             };
-            let drift: Vec<String> =
+            let brightness: Vec<String> =
                 [n / 4, n / 2, 3 * n / 4, n - 1].iter().map(|&t| format!("{:.2}", lum(&o[t]) / lum(&frames[t]))).collect();
             println!(
                 "| {name} | {label} | {:.2} | {:.2} | {rep:.3} | {:.2} | {} | {} | {} | {secs:.1} |",
@@ -115,7 +115,7 @@ fn main() {
                 grid_peak(&o[n - 1]) / g_last,
                 flicker(o) / f_in,
                 seams.join(" / "),
-                drift.join(" "),
+                brightness.join(" "),
                 if out.lighting.is_some() { "split" } else { "kept" },
             );
             if let Some(d) = &out_dir {
