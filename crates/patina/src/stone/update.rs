@@ -234,7 +234,7 @@ pub const WEIGHT_SIGMA: f32 = 2.0;
 ///   I_0, which leaves every patch outline at full relief, a lattice of
 ///   bright blotches once oversized segments are bisected. Here one
 ///   screened Poisson problem covers the whole image
-///   ([`poisson::integrate`]): the blended gradients are followed at scales
+///   ([`poisson::Solver`]): the blended gradients are followed at scales
 ///   up to the patch size `scale` (lambda = 1 / scale^2), and larger scales
 ///   (the object's form and lighting) stay anchored to I_0.
 /// - Eq. (2) blends with w and 1 - w. The stone texture of p0 and of its
@@ -258,6 +258,7 @@ pub fn update((base, fine): (&Image, &Image), weights: &Image, (object, sources)
     let mut out = Image::from_fn(w, h, c, |x, y, p| {
         p.iter_mut().zip(base.pixel(x, y).iter().zip(fine.pixel(x, y))).for_each(|(o, (b, f))| *o = b + f)
     });
+    let mut solver = poisson::Solver::new(w, h);
     for ch in 0..c {
         // The mismatch on each edge: the blended gradient minus the own one.
         let mismatch = |horizontal: bool| -> Vec<f32> {
@@ -282,8 +283,8 @@ pub fn update((base, fine): (&Image, &Image), weights: &Image, (object, sources)
             });
             m
         };
-        let d = poisson::integrate(&mismatch(true), &mismatch(false), w, h, lambda);
-        for (v, dv) in out.data_mut().iter_mut().skip(ch).step_by(c).zip(&d) {
+        let d = solver.integrate(&mismatch(true), &mismatch(false), lambda);
+        for (v, dv) in out.data_mut().iter_mut().skip(ch).step_by(c).zip(d) {
             *v += dv;
         }
     }

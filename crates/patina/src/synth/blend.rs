@@ -10,7 +10,7 @@
 //! Solved per channel for the correction d = u - c: minimise
 //! sum over 4-neighbour edges of (d_q - d_p - m_pq)^2 + lambda sum d^2,
 //! where m is the seam mismatch (zero inside blocks), with the engine's
-//! screened Poisson solver ([`poisson::integrate`]).
+//! screened Poisson solver ([`poisson::Solver`]).
 
 use super::poisson;
 use crate::image::Image;
@@ -35,8 +35,8 @@ pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)], ou
     assert_eq!(source.channels(), n, "source and composite channels differ");
     let (sw, sh) = (source.width() as u32, source.height() as u32);
     // The seam mismatch on each horizontal (x -> x+1) and vertical (y -> y+1) edge, per channel.
-    let mismatch = |horizontal: bool, c: usize| -> Vec<f32> {
-        let mut m = vec![0f32; w * h];
+    let mismatch = |m: &mut [f32], horizontal: bool, c: usize| {
+        m.iter_mut().for_each(|v| *v = 0.0);
         m.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             for (x, out) in row.iter_mut().enumerate() {
                 let (qx, qy) = if horizontal { (x + 1, y) } else { (x, y + 1) };
@@ -64,15 +64,18 @@ pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)], ou
                 }
             }
         });
-        m
     };
     let mut out = composite.clone();
+    // The mismatches and the solver's grids are reused by every channel.
+    let mut solver = poisson::Solver::new(w, h);
+    let (mut mh, mut mv) = (vec![0f32; w * h], vec![0f32; w * h]);
     for c in 0..n {
-        let (mut mh, mut mv) = (mismatch(true, c), mismatch(false, c));
+        mismatch(&mut mh, true, c);
+        mismatch(&mut mv, false, c);
         if let Some(k) = outlier {
             clamp_outliers(&mut mh, &mut mv, sources, w, k);
         }
-        let d = poisson::integrate(&mh, &mv, w, h, LAMBDA);
+        let d = solver.integrate(&mh, &mv, LAMBDA);
         let data = out.data_mut();
         for (i, v) in d.iter().enumerate() {
             data[i * n + c] += v;

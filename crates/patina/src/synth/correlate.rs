@@ -84,15 +84,16 @@ impl Plans {
         }
     }
 
-    /// Inverse of a column-major spectrum into an fw x fh real image
-    /// (scaled so that inverse(forward(x)) = x). Destroys `spec`.
-    fn inverse(&self, spec: &mut [C32], out: &mut [f32], scratch: &mut Scratch) {
+    /// Inverse of a column-major spectrum into the first `rows` rows of an
+    /// fw x fh real image (scaled so that inverse(forward(x)) = x; the
+    /// other rows are left as they were). Destroys `spec`.
+    fn inverse(&self, spec: &mut [C32], out: &mut [f32], rows: usize, scratch: &mut Scratch) {
         let cols = self.cols();
         for u in 0..cols {
             self.col_inv.process_with_scratch(&mut spec[u * self.fh..(u + 1) * self.fh], &mut scratch.fft);
         }
         let scale = 1.0 / (self.fw * self.fh) as f32;
-        for y in 0..self.fh {
+        for y in 0..rows.min(self.fh) {
             for u in 0..cols {
                 scratch.row_spec[u] = spec[u * self.fh + y];
             }
@@ -134,6 +135,13 @@ pub struct SpectralSource {
     squares_sat: SummedArea,
 }
 
+/// The squares term of a masked SSD for one mask ([`SpectralSource::mask_term`]).
+pub struct MaskTerm {
+    spectrum: Vec<C32>,
+    kw: usize,
+    kh: usize,
+}
+
 /// Accumulates the terms of one query (see [`SpectralSource::add_term`]).
 pub struct Query {
     acc: Vec<C32>,
@@ -142,6 +150,8 @@ pub struct Query {
     constant: f64,
     /// Weight of the box sum of Q (from [`SpectralSource::add_box_term`]).
     box_scale: f64,
+    /// The inverse transform's rows of valid placements.
+    full: Vec<f32>,
     scratch: Scratch,
     kw: usize,
     kh: usize,
@@ -199,6 +209,7 @@ impl SpectralSource {
             values: vec![0.0; kw * kh],
             constant: 0.0,
             box_scale: 0.0,
+            full: vec![0.0; self.plans.fw * (self.height - kh + 1)],
             scratch: Self::scratch(&self.plans),
             kw,
             kh,
@@ -209,13 +220,30 @@ impl SpectralSource {
     /// source's channels, interleaved) under `mask` (kw x kh weights) and
     /// every placement in the source.
     pub fn add_term(&self, q: &mut Query, template: &[f32], mask: &[f32], scale: f32) {
+        let squares = self.mask_term(mask, q.kw, q.kh);
+        self.add_masked_term(q, template, mask, &squares, scale);
+    }
+
+    /// The squares term of a masked SSD, corr(M, Q), as a spectrum: it
+    /// depends on the mask alone, so a caller querying many templates under
+    /// a few masks (quilting's strip shapes) computes it once per mask.
+    pub fn mask_term(&self, mask: &[f32], kw: usize, kh: usize) -> MaskTerm {
+        assert_eq!(mask.len(), kw * kh);
+        let mut kernel = vec![C32::new(0.0, 0.0); self.plans.spectrum_len()];
+        self.plans.forward(mask, kw, kh, &mut kernel, &mut Self::scratch(&self.plans));
+        kernel.iter_mut().zip(&self.squares).for_each(|(k, s)| *k = k.conj() * s);
+        MaskTerm { spectrum: kernel, kw, kh }
+    }
+
+    /// [`Self::add_term`] with the mask's squares term from [`Self::mask_term`].
+    pub fn add_masked_term(&self, q: &mut Query, template: &[f32], mask: &[f32], squares: &MaskTerm, scale: f32) {
         let (kw, kh, n) = (q.kw, q.kh, self.channels);
         assert_eq!(template.len(), kw * kh * n);
         assert_eq!(mask.len(), kw * kh);
+        assert!((squares.kw, squares.kh) == (kw, kh) && squares.spectrum.len() == q.acc.len(), "mask term of another size");
         self.add_cross_terms(q, template, Some(mask), scale);
-        self.plans.forward(mask, kw, kh, &mut q.kernel, &mut q.scratch);
-        for ((a, k), s) in q.acc.iter_mut().zip(&q.kernel).zip(&self.squares) {
-            *a += k.conj() * s * scale;
+        for (a, k) in q.acc.iter_mut().zip(&squares.spectrum) {
+            *a += k * scale;
         }
     }
 
@@ -259,20 +287,26 @@ impl SpectralSource {
     }
 
     /// Finish: the summed cost of every valid placement, row-major over
-    /// (width - kw + 1) x (height - kh + 1), clamped at 0.
-    pub fn finish(&self, mut q: Query) -> Vec<f32> {
-        let (fw, fh) = (self.plans.fw, self.plans.fh);
-        let mut full = vec![0f32; fw * fh];
-        self.plans.inverse(&mut q.acc, &mut full, &mut q.scratch);
+    /// (width - kw + 1) x (height - kh + 1), clamped at 0. The query is
+    /// emptied for the next template of its size: a caller querying many
+    /// (quilting's blocks) keeps one per thread instead of allocating its
+    /// transform buffers each time.
+    pub fn finish(&self, q: &mut Query) -> Vec<f32> {
+        let fw = self.plans.fw;
         let (vw, vh) = (self.width - q.kw + 1, self.height - q.kh + 1);
+        // Only the rows of valid placements are transformed back.
+        self.plans.inverse(&mut q.acc, &mut q.full, vh, &mut q.scratch);
         let mut out = Vec::with_capacity(vw * vh);
         let k = q.constant as f32;
         for y in 0..vh {
-            out.extend(full[y * fw..y * fw + vw].iter().enumerate().map(|(x, v)| {
+            out.extend(q.full[y * fw..y * fw + vw].iter().enumerate().map(|(x, v)| {
                 let boxed = if q.box_scale != 0.0 { (q.box_scale * self.squares_sat.sum(x, y, q.kw, q.kh)) as f32 } else { 0.0 };
                 (v + k + boxed).max(0.0)
             }));
         }
+        q.acc.iter_mut().for_each(|a| *a = C32::new(0.0, 0.0));
+        q.constant = 0.0;
+        q.box_scale = 0.0;
         out
     }
 }
@@ -299,7 +333,7 @@ pub fn autocorrelation(source: &Image, weights: &[f32]) -> (Vec<f32>, usize, usi
         }
     }
     let mut out = vec![0f32; plans.fw * plans.fh];
-    plans.inverse(&mut power, &mut out, &mut scratch);
+    plans.inverse(&mut power, &mut out, plans.fh, &mut scratch);
     (out, plans.fw, plans.fh)
 }
 
@@ -339,10 +373,10 @@ mod tests {
         let spectral = SpectralSource::new(&src, &weights);
         let mut q = spectral.query(kw, kh);
         spectral.add_term(&mut q, &template, &mask, 2.0);
-        let costs = spectral.finish(q);
+        let costs = spectral.finish(&mut q);
         let mut bq = spectral.query(kw, kh);
         spectral.add_box_term(&mut bq, &template, 0.5);
-        let box_costs = spectral.finish(bq);
+        let box_costs = spectral.finish(&mut bq);
         let ones = vec![1.0; kw * kh];
         assert_eq!(costs.len(), (37 - kw + 1) * (29 - kh + 1));
         for sy in 0..29 - kh + 1 {

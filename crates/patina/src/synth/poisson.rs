@@ -18,37 +18,76 @@ const CYCLES: usize = 2;
 /// Gauss-Seidel sweeps before and after each coarse correction.
 const SWEEPS: usize = 2;
 
-/// The correction d on a `w` x `h` grid for the horizontal (x -> x+1,
-/// `mh[y w + x]`) and vertical (y -> y+1, `mv`) edge mismatches; entries
-/// on the last column (`mh`) or row (`mv`) are ignored. Neumann boundaries.
-pub fn integrate(mh: &[f32], mv: &[f32], w: usize, h: usize, lambda: f32) -> Vec<f32> {
-    assert!(mh.len() == w * h && mv.len() == w * h, "one mismatch per pixel and direction");
-    // Right-hand side: the divergence of the mismatch field.
-    let mut b = vec![0f32; w * h];
-    for_chunks(&mut b, w, |y, row| {
-        for (x, out) in row.iter_mut().enumerate() {
-            let i = y * w + x;
-            let mut v = 0.0;
-            if x + 1 < w {
-                v -= mh[i];
+/// The multigrid's working grids for one size, kept between solves: a
+/// caller integrating several channels (a seam blend, stone's patch
+/// update) allocates them once. Fresh multi-megabyte buffers on every
+/// level and sweep cost a third of a 1024 px RGB seam blend in page faults.
+pub struct Solver {
+    /// Level 0 is the `w` x `h` grid; each next one is half the size.
+    levels: Vec<Level>,
+    /// The rows each Gauss-Seidel band reads from outside itself.
+    halo: Vec<f32>,
+}
+
+/// One level's right-hand side `b`, solution `d` and residual `r`.
+struct Level {
+    w: usize,
+    h: usize,
+    b: Vec<f32>,
+    d: Vec<f32>,
+    r: Vec<f32>,
+}
+
+impl Solver {
+    /// Working grids for a `w` x `h` problem.
+    pub fn new(w: usize, h: usize) -> Self {
+        let mut levels = Vec::new();
+        let (mut lw, mut lh) = (w, h);
+        loop {
+            let n = lw * lh;
+            levels.push(Level { w: lw, h: lh, b: vec![0.0; n], d: vec![0.0; n], r: vec![0.0; n] });
+            if lw <= 2 || lh <= 2 {
+                break;
             }
-            if x > 0 {
-                v += mh[i - 1];
-            }
-            if y + 1 < h {
-                v -= mv[i];
-            }
-            if y > 0 {
-                v += mv[i - w];
-            }
-            *out = v;
+            (lw, lh) = (lw.div_ceil(2), lh.div_ceil(2));
         }
-    });
-    let mut d = full_multigrid(&b, w, h, 1.0, lambda);
-    for _ in 1..CYCLES {
-        v_cycle(&mut d, &b, w, h, 1.0, lambda);
+        Solver { levels, halo: vec![0.0; 2 * h.div_ceil(BAND) * w] }
     }
-    d
+
+    /// The correction d on this solver's `w` x `h` grid for the horizontal
+    /// (x -> x+1, `mh[y w + x]`) and vertical (y -> y+1, `mv`) edge
+    /// mismatches; entries on the last column (`mh`) or row (`mv`) are
+    /// ignored. Neumann boundaries. The correction stays valid until the
+    /// next solve.
+    pub fn integrate(&mut self, mh: &[f32], mv: &[f32], lambda: f32) -> &[f32] {
+        let (w, h) = (self.levels[0].w, self.levels[0].h);
+        assert!(mh.len() == w * h && mv.len() == w * h, "one mismatch per pixel and direction");
+        // Right-hand side: the divergence of the mismatch field.
+        for_chunks(&mut self.levels[0].b, w, |y, row| {
+            for (x, out) in row.iter_mut().enumerate() {
+                let i = y * w + x;
+                let mut v = 0.0;
+                if x + 1 < w {
+                    v -= mh[i];
+                }
+                if x > 0 {
+                    v += mh[i - 1];
+                }
+                if y + 1 < h {
+                    v -= mv[i];
+                }
+                if y > 0 {
+                    v += mv[i - w];
+                }
+                *out = v;
+            }
+        });
+        full_multigrid(&mut self.levels, &mut self.halo, 1.0, lambda);
+        for _ in 1..CYCLES {
+            v_cycle(&mut self.levels, &mut self.halo, 1.0, lambda);
+        }
+        &self.levels[0].d
+    }
 }
 
 /// Grids smaller than this many pixels are swept on one thread: on the
@@ -67,19 +106,18 @@ fn for_chunks(data: &mut [f32], len: usize, f: impl Fn(usize, &mut [f32]) + Sync
     }
 }
 
-/// Half-size average of a w x h grid (cell-centred restriction).
-fn restrict(r: &[f32], w: usize, h: usize) -> (Vec<f32>, usize, usize) {
-    let (cw, ch) = (w.div_ceil(2), h.div_ceil(2));
-    let mut rc = vec![0f32; cw * ch];
-    let mut count = vec![0f32; cw * ch];
+/// Half-size average of a w x h grid into `rc` (cell-centred restriction).
+fn restrict(r: &[f32], w: usize, h: usize, rc: &mut [f32]) {
+    let cw = w.div_ceil(2);
+    rc.iter_mut().for_each(|v| *v = 0.0);
     for y in 0..h {
         for x in 0..w {
             rc[(y / 2) * cw + x / 2] += r[y * w + x];
-            count[(y / 2) * cw + x / 2] += 1.0;
         }
     }
-    rc.iter_mut().zip(&count).for_each(|(v, k)| *v /= k);
-    (rc, cw, ch)
+    // How many fine cells each coarse one averages: 4, or 2 or 1 on an odd edge.
+    let count = |k: usize, n: usize| if 2 * k + 1 < n { 2.0f32 } else { 1.0 };
+    for_chunks(rc, cw, |cy, row| row.iter_mut().enumerate().for_each(|(cx, v)| *v /= count(cx, w) * count(cy, h)));
 }
 
 /// Add the bilinear (cell-centred) prolongation of the coarse `ec` to `d`.
@@ -104,38 +142,41 @@ fn prolong_add(d: &mut [f32], w: usize, ec: &[f32], cw: usize, ch: usize) {
     });
 }
 
-/// Full multigrid: solve the restricted problem, prolong its solution as
-/// the start here, and finish with one V-cycle.
-fn full_multigrid(b: &[f32], w: usize, h: usize, s: f32, lambda: f32) -> Vec<f32> {
-    let mut d = vec![0f32; w * h];
-    if w > 2 && h > 2 {
-        let (bc, cw, ch) = restrict(b, w, h);
-        let dc = full_multigrid(&bc, cw, ch, s / 4.0, lambda);
-        prolong_add(&mut d, w, &dc, cw, ch);
+/// Full multigrid on `levels[0]`: solve the restricted problem, prolong its
+/// solution as the start here, and finish with one V-cycle.
+fn full_multigrid(levels: &mut [Level], halo: &mut Vec<f32>, s: f32, lambda: f32) {
+    let (fine, coarser) = levels.split_first_mut().expect("at least one level");
+    fine.d.iter_mut().for_each(|v| *v = 0.0);
+    if let Some(coarse) = coarser.first_mut() {
+        restrict(&fine.b, fine.w, fine.h, &mut coarse.b);
+        full_multigrid(coarser, halo, s / 4.0, lambda);
+        let coarse = &coarser[0];
+        prolong_add(&mut fine.d, fine.w, &coarse.d, coarse.w, coarse.h);
     }
-    v_cycle(&mut d, b, w, h, s, lambda);
-    d
+    v_cycle(levels, halo, s, lambda);
 }
 
-/// One V-cycle for (s L + lambda) d = b on a w x h grid (L the graph
+/// One V-cycle for (s L + lambda) d = b on `levels[0]` (L the graph
 /// Laplacian with Neumann boundaries, s the level's scale).
-fn v_cycle(d: &mut [f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f32) {
-    if w <= 2 || h <= 2 {
+fn v_cycle(levels: &mut [Level], halo: &mut Vec<f32>, s: f32, lambda: f32) {
+    let (fine, coarser) = levels.split_first_mut().expect("at least one level");
+    let Some(coarse) = coarser.first_mut() else {
         for _ in 0..50 {
-            gauss_seidel(d, b, w, h, s, lambda);
+            gauss_seidel(fine, halo, s, lambda);
         }
         return;
-    }
+    };
     for _ in 0..SWEEPS {
-        gauss_seidel(d, b, w, h, s, lambda);
+        gauss_seidel(fine, halo, s, lambda);
     }
-    let r = residual(d, b, w, h, s, lambda);
-    let (rc, cw, ch) = restrict(&r, w, h);
-    let mut ec = vec![0f32; cw * ch];
-    v_cycle(&mut ec, &rc, cw, ch, s / 4.0, lambda);
-    prolong_add(d, w, &ec, cw, ch);
+    residual(&fine.d, &fine.b, fine.w, fine.h, s, lambda, &mut fine.r);
+    restrict(&fine.r, fine.w, fine.h, &mut coarse.b);
+    coarse.d.iter_mut().for_each(|v| *v = 0.0);
+    v_cycle(coarser, halo, s / 4.0, lambda);
+    let coarse = &coarser[0];
+    prolong_add(&mut fine.d, fine.w, &coarse.d, coarse.w, coarse.h);
     for _ in 0..SWEEPS {
-        gauss_seidel(d, b, w, h, s, lambda);
+        gauss_seidel(fine, halo, s, lambda);
     }
 }
 
@@ -167,10 +208,11 @@ const BAND: usize = 16;
 /// rows in parallel, each reading the rows just outside it from a copy of
 /// them taken before the half-sweep (the same values it would read in
 /// place). Interior pixels take a branch-free path (four neighbours).
-fn gauss_seidel(d: &mut [f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f32) {
+fn gauss_seidel(level: &mut Level, halo: &mut Vec<f32>, s: f32, lambda: f32) {
+    let Level { w, h, ref b, ref mut d, .. } = *level;
     let inner = 1.0 / (4.0 * s + lambda);
     let bands = h.div_ceil(BAND);
-    let mut halo = vec![0f32; 2 * bands * w];
+    halo.resize(halo.len().max(2 * bands * w), 0.0);
     for colour in 0..2 {
         for k in 0..bands {
             let (y0, y1) = (k * BAND, ((k + 1) * BAND).min(h));
@@ -213,15 +255,14 @@ fn gauss_seidel(d: &mut [f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f3
     }
 }
 
-/// b - (s L + lambda) d.
-fn residual(d: &[f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f32) -> Vec<f32> {
-    let mut r = vec![0f32; w * h];
-    for_chunks(&mut r, w, |y, row| {
+/// r = b - (s L + lambda) d.
+#[allow(clippy::too_many_arguments)]
+fn residual(d: &[f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f32, r: &mut [f32]) {
+    for_chunks(r, w, |y, row| {
         for (x, v) in row.iter_mut().enumerate() {
             let (sum, k) = neighbours(d, w, h, x, y);
             let i = y * w + x;
             *v = b[i] - ((s * k + lambda) * d[i] - s * sum);
         }
     });
-    r
 }

@@ -30,7 +30,7 @@
 //!   wave of independent blocks is planned in parallel and pasted in a
 //!   fixed order, and each block draws from its own generator.
 
-use super::correlate::{masked_ssd, SpectralSource};
+use super::correlate::{masked_ssd, MaskTerm, Query, SpectralSource};
 use super::families::{Families, FAMILIES};
 use super::lattice::Lattice;
 use super::problem::Synthesis;
@@ -634,7 +634,7 @@ pub const RELATIVE_FLOOR: f32 = 0.25;
 pub const RELATIVE_CAP: f32 = super::rarity::DISTINCT_FROM * super::rarity::DISTINCT_FROM;
 
 /// At most this many distinct strip shapes get their relative-cost factors
-/// computed once per pass ([`Pass::relative_factors`]).
+/// and squares terms computed once per pass ([`Shape`]).
 const SHARED_SHAPES: usize = 16;
 
 /// How much a rare feature not pasted yet lowers a candidate's cost, as a
@@ -823,6 +823,20 @@ impl Layout {
     }
 }
 
+/// What every block with the same strips shares ([`Pass::run`]).
+struct Shape {
+    strips: Strips,
+    /// The relative-cost factors ([`Pass::relative_factors`]), with a twin error.
+    factors: Option<Vec<f32>>,
+    /// The overlap mask's squares term ([`SpectralSource::mask_term`]).
+    squares: MaskTerm,
+}
+
+/// 1 on a block's overlap `strips`, 0 inside.
+fn overlap_mask(strips: Strips, (bw, bh): (usize, usize)) -> Vec<f32> {
+    (0..bw * bh).map(|k| if strips.contains(k % bw, k / bw, (bw, bh)) { 1.0 } else { 0.0 }).collect()
+}
+
 impl Pass<'_> {
     fn run(&self, width: usize, height: usize, progress: &dyn Fn(usize, usize)) -> QuiltPlan {
         let layout = if self.wrap || !self.params.stagger {
@@ -836,26 +850,38 @@ impl Pass<'_> {
         let mut usage = Usage::new(self.source.size(), self.block, self.rarity, self.families);
         // Per block, its source position minus its canvas position.
         let mut shifts: Vec<Option<[f32; 2]>> = vec![None; total];
-        // The relative-cost factors depend on a block's strips only: on the
-        // regular grid a few shapes serve every block, so they are computed
-        // once (a staggered layout has about one shape per block, and each
-        // block computes its own).
+        // The relative-cost factors and the overlap mask's squares term
+        // depend on a block's strips only: on the regular grid a few shapes
+        // serve every block, so they are computed once (a staggered layout
+        // has about one shape per block, and each block computes its own).
         let mut shapes: Vec<Strips> = layout.blocks.iter().map(|b| b.strips).filter(Strips::any).collect();
         shapes.sort();
         shapes.dedup();
-        let factors: Vec<(Strips, Vec<f32>)> = match self.twin {
-            Some(t) if shapes.len() <= SHARED_SHAPES => shapes.par_iter().map(|&s| (s, self.relative_factors(t, s))).collect(),
-            _ => Vec::new(),
+        let shared: Vec<Shape> = if shapes.len() <= SHARED_SHAPES {
+            shapes
+                .par_iter()
+                .map(|&strips| Shape {
+                    strips,
+                    factors: self.twin.map(|t| self.relative_factors(t, strips)),
+                    squares: self.spectral.mask_term(&overlap_mask(strips, self.block), self.block.0, self.block.1),
+                })
+                .collect()
+        } else {
+            Vec::new()
         };
         for wave in &layout.waves {
             let planned: Vec<(usize, Placement)> = wave
                 .par_iter()
-                .map(|&k| {
-                    let b = &layout.blocks[k];
-                    let neighbours = [b.left, b.above].into_iter().flatten().filter_map(|n| shifts[n]);
-                    let cached = factors.iter().find(|(s, _)| *s == b.strips).map(|(_, f)| f.as_slice());
-                    (k, self.place(&canvas, &usage, b.at, b.strips, neighbours, k as u64, cached))
-                })
+                .map_init(
+                    // One transform query per worker, emptied after each block.
+                    || self.spectral.query(self.block.0, self.block.1),
+                    |query, &k| {
+                        let b = &layout.blocks[k];
+                        let neighbours = [b.left, b.above].into_iter().flatten().filter_map(|n| shifts[n]);
+                        let cached = shared.iter().find(|s| s.strips == b.strips);
+                        (k, self.place(&canvas, &usage, b, neighbours, (k as u64, cached), query))
+                    },
+                )
                 .collect();
             for (k, p) in planned {
                 shifts[k] = Some([p.source_x as f32 - p.x as f32, p.source_y as f32 - p.y as f32]);
@@ -868,21 +894,22 @@ impl Pass<'_> {
         QuiltPlan { width, height, source_size: self.source.size(), block: self.block, overlap: self.overlap, placements, wrap: self.wrap }
     }
 
-    /// Choose the source block pasted at (x, y), whose `strips` are
-    /// already covered, and its seam (`cell` seeds its random choice).
+    /// Choose the source block pasted at `slot`, and its seam: `cell`
+    /// seeds its random choice, `cached` holds what its strips' shape
+    /// shares, and `q` is an empty query for its overlap costs.
     fn place(
         &self,
         canvas: &Image,
         usage: &Usage,
-        (x, y): (usize, usize),
-        strips: Strips,
+        slot: &Slot,
         neighbour_shifts: impl Iterator<Item = [f32; 2]>,
-        cell: u64,
-        cached: Option<&[f32]>,
+        (cell, cached): (u64, Option<&Shape>),
+        q: &mut Query,
     ) -> Placement {
+        let ((x, y), strips) = (slot.at, slot.strips);
         let (bw, bh) = self.block;
         let mut g = rng::generator(self.seed, &[cell]);
-        let overlap_mask: Vec<f32> = (0..bw * bh).map(|k| if strips.contains(k % bw, k / bw, self.block) { 1.0 } else { 0.0 }).collect();
+        let overlap_mask = overlap_mask(strips, self.block);
         let full = vec![1.0f32; bw * bh];
         let m_sum: f32 = overlap_mask.iter().sum();
         let area = (bw * bh) as f32;
@@ -901,23 +928,25 @@ impl Pass<'_> {
             let pick = free[g.gen_range(0..free.len())];
             (pick % vw, pick / vw)
         } else {
-            let mut q = self.spectral.query(bw, bh);
             if m_sum > 0.0 {
-                self.spectral.add_term(&mut q, &template, &overlap_mask, scales.0);
+                match cached {
+                    Some(shape) => self.spectral.add_masked_term(q, &template, &overlap_mask, &shape.squares, scales.0),
+                    None => self.spectral.add_term(q, &template, &overlap_mask, scales.0),
+                }
             }
             if let Some(p) = &prev {
-                self.spectral.add_term(&mut q, p, &full, scales.1);
+                self.spectral.add_term(q, p, &full, scales.1);
             }
             if let (Some((_, _, spec, _)), Some(t)) = (&self.guide, &guide_t) {
-                spec.add_term_into(&mut q, t, &full, scales.2);
+                spec.add_term_into(q, t, &full, scales.2);
             }
             let mut costs = self.spectral.finish(q);
             // Overlap costs relative to the candidate's own twin error (the
             // twin error is only there for unguided quilts).
-            let relative: Option<Cow<[f32]>> = self
-                .twin
-                .filter(|_| m_sum > 0.0)
-                .map(|t| cached.map_or_else(|| Cow::Owned(self.relative_factors(t, strips)), Cow::Borrowed));
+            let relative: Option<Cow<[f32]>> = self.twin.filter(|_| m_sum > 0.0).map(|t| match cached.and_then(|c| c.factors.as_deref()) {
+                Some(f) => Cow::Borrowed(f),
+                None => Cow::Owned(self.relative_factors(t, strips)),
+            });
             if let Some(r) = &relative {
                 costs.iter_mut().zip(r.iter()).for_each(|(c, f)| *c *= f);
             }
@@ -1175,29 +1204,39 @@ impl Synthesis<'_> {
         let passes = if guided.is_some() { params.transfer_passes.max(1) } else { 1 };
         let gweights: Vec<f32> = guided.map_or(Vec::new(), |(g, _)| vec![1.0 / g.channels() as f32; g.channels()]);
         let gspectral = guided.map(|(g, _)| SpectralSource::new(g, &gweights));
-        let lattice = if params.lattice && guided.is_none() { Lattice::detect(src, &weights) } else { None };
-        let lattice = lattice.and_then(|l| l.longer_than(block.0.min(block.1) as f32 / 3.0));
-        let rarity = if params.rarity > 0.0 && guided.is_none() {
-            Some(super::rarity::rarity(
-                src,
-                &weights,
-                (block.0.min(block.1) / 4).max(super::rarity::SMALLEST),
-                rng::derive(self.seed, &[0x7a7e]),
-            )?)
-        } else {
-            None
+        // The exemplar's analyses are independent of each other; each is
+        // parallel inside, but not enough to keep both cores busy on a small
+        // exemplar, so they run side by side.
+        let detect_lattice = || {
+            let lattice = if params.lattice && guided.is_none() { Lattice::detect(src, &weights) } else { None };
+            lattice.and_then(|l| l.longer_than(block.0.min(block.1) as f32 / 3.0))
         };
-        let families = if params.families > 0.0 && guided.is_none() {
-            Some(Families::of(src, &weights, (block.0.min(block.1) as f32 / 8.0).max(2.0), rng::derive(self.seed, &[0xfa31]))?)
-        } else {
-            None
+        let rarity = || -> Result<Option<Image>> {
+            if params.rarity > 0.0 && guided.is_none() {
+                let feature = (block.0.min(block.1) / 4).max(super::rarity::SMALLEST);
+                Ok(Some(super::rarity::rarity(src, &weights, feature, rng::derive(self.seed, &[0x7a7e]))?))
+            } else {
+                Ok(None)
+            }
         };
-        let twin = if params.relative > 0.0 && guided.is_none() && !self.tileable {
-            let e = super::rarity::twin_error(src, &weights, rng::derive(self.seed, &[0x7e1a]))?;
-            Some(SummedArea::new(e.width(), e.height(), |x, y| f64::from(e.at(x, y, 0).min(RELATIVE_CAP))))
-        } else {
-            None
+        let families = || -> Result<Option<Families>> {
+            if params.families > 0.0 && guided.is_none() {
+                let scale = (block.0.min(block.1) as f32 / 8.0).max(2.0);
+                Ok(Some(Families::of(src, &weights, scale, rng::derive(self.seed, &[0xfa31]))?))
+            } else {
+                Ok(None)
+            }
         };
+        let twin = || -> Result<Option<SummedArea>> {
+            if params.relative > 0.0 && guided.is_none() && !self.tileable {
+                let e = super::rarity::twin_error(src, &weights, rng::derive(self.seed, &[0x7e1a]))?;
+                Ok(Some(SummedArea::new(e.width(), e.height(), |x, y| f64::from(e.at(x, y, 0).min(RELATIVE_CAP)))))
+            } else {
+                Ok(None)
+            }
+        };
+        let ((lattice, rarity), (families, twin)) = rayon::join(|| rayon::join(detect_lattice, rarity), || rayon::join(families, twin));
+        let (rarity, families, twin) = (rarity?, families?, twin?);
         let mut previous: Option<Image> = None;
         let mut plan = None;
         for pass in 0..passes {
@@ -1239,7 +1278,9 @@ impl Synthesis<'_> {
                 }
             };
             let p = pass_state.run(w, h, &report);
-            previous = Some(p.render(src)?);
+            if pass + 1 < passes {
+                previous = Some(p.render(src)?);
+            }
             plan = Some(p);
         }
         let plan = plan.expect("at least one pass");
@@ -1250,7 +1291,7 @@ impl Synthesis<'_> {
         let image = if params.blend && params.boundary_cut && guided.is_none() && !self.tileable {
             plan.render_seamless(src)?
         } else {
-            previous.expect("at least one pass")
+            plan.render(src)?
         };
         Ok(Quilted { image, plan, lighting: None, lattice })
     }

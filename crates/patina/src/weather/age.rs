@@ -274,7 +274,7 @@ fn distance_scales(f: &Features, n: usize, patch: (usize, usize)) -> (f32, f32) 
             .map(|&(i, j)| {
                 let mut q = spectral.query(patch.0, patch.1);
                 spectral.add_box_term(&mut q, &cell_template(img, i, j, patch), 1.0);
-                spectral.finish(q).into_iter().fold(0.0, f32::max)
+                spectral.finish(&mut q).into_iter().fold(0.0, f32::max)
             })
             .collect();
         maxima.into_iter().fold(0.0, f32::max).max(1e-12)
@@ -297,7 +297,7 @@ fn cell_minima(f: &Features, n: usize, (pw, ph): (usize, usize), (i_max, g_max):
             let (i, j) = (c % n, c / n);
             let mut q = spectral.query(pw, ph);
             spectral.add_box_term(&mut q, &cell_template(&stacked, i, j, (pw, ph)), 1.0);
-            let d = spectral.finish(q);
+            let d = spectral.finish(&mut q);
             let mut best = vec![f32::INFINITY; n * n];
             for (y, row) in d.chunks_exact(vw).enumerate() {
                 let base = cell_y[y] * n;
