@@ -38,14 +38,6 @@ pub const SMALLEST: usize = 14;
 const PATCH: usize = 7;
 /// PatchMatch sweeps of the self-match.
 const SWEEPS: usize = 5;
-/// PatchMatch sweeps of [`twin_error`]'s self-match, at full resolution.
-/// Quilting only averages it over overlap strips, where the few
-/// neighbourhoods whose twin two sweeps miss wash out: on the 12 real
-/// exemplars of examples/engine_quality (seeds 1-3) coherence, completeness
-/// and repeated share over self-similarity moved 0.479 / 0.448 / 0.226 ->
-/// 0.483 / 0.450 / 0.216 from 5 sweeps, within the seeds' spread, and a
-/// 256 px exemplar's twin error takes 30 ms instead of 75.
-const TWIN_SWEEPS: usize = 2;
 
 /// Feature widths looked at: `feature`, twice it and four times it.
 const SCALES: usize = 3;
@@ -57,13 +49,13 @@ const SCALES: usize = 3;
 /// skipped. `weights` weigh the channels as the synthesis does.
 pub fn rarity(exemplar: &Image, weights: &[f32], feature: usize, seed: u64) -> Result<Image> {
     let (w, h) = exemplar.size();
-    let mut out = rarity_at(exemplar, weights, feature, seed, SWEEPS)?;
+    let mut out = rarity_at(exemplar, weights, feature, seed)?;
     for k in 1..SCALES {
         let f = feature << k;
         if w.min(h) / (f / PATCH).max(1) < 4 * PATCH {
             break;
         }
-        let coarse = rarity_at(exemplar, weights, f, rng::derive(seed, &[k as u64]), SWEEPS)?;
+        let coarse = rarity_at(exemplar, weights, f, rng::derive(seed, &[k as u64]))?;
         out.data_mut().iter_mut().zip(coarse.data()).for_each(|(a, &b)| *a = a.max(b));
     }
     Ok(out)
@@ -75,7 +67,7 @@ pub fn rarity(exemplar: &Image, weights: &[f32], feature: usize, seed: u64) -> R
 /// Busy material (a peel's torn lip) has no close twin and a large error;
 /// plain paint has a small one.
 pub fn twin_error(exemplar: &Image, weights: &[f32], seed: u64) -> Result<Image> {
-    let mut e = rarity_at(exemplar, weights, PATCH, seed, TWIN_SWEEPS)?;
+    let mut e = rarity_at(exemplar, weights, PATCH, seed)?;
     e.data_mut().iter_mut().for_each(|v| *v *= *v);
     Ok(e)
 }
@@ -84,7 +76,7 @@ pub fn twin_error(exemplar: &Image, weights: &[f32], seed: u64) -> Result<Image>
 /// exemplar is shrunk so that a [`PATCH`]-pixel patch spans that width,
 /// matched against itself with PatchMatch (matches within one patch of the
 /// pixel excluded), and the distances over their median stretched back.
-fn rarity_at(exemplar: &Image, weights: &[f32], feature: usize, seed: u64, sweeps: usize) -> Result<Image> {
+fn rarity_at(exemplar: &Image, weights: &[f32], feature: usize, seed: u64) -> Result<Image> {
     let (w, h) = exemplar.size();
     let shrink = (feature / PATCH).min(w.min(h) / (4 * PATCH)).max(1);
     let small = if shrink > 1 { resize(exemplar, w / shrink, h / shrink, Filter::Cubic)? } else { exemplar.clone() };
@@ -92,7 +84,7 @@ fn rarity_at(exemplar: &Image, weights: &[f32], feature: usize, seed: u64, sweep
     let r = PATCH / 2;
     let metric = PatchMetric::ssd(weights.to_vec());
     let pm =
-        PatchMatch { radius: r, iterations: sweeps, metric: &metric, uniformity: 0.0, max_search_radius: None, exclude_self: Some(PATCH) };
+        PatchMatch { radius: r, iterations: SWEEPS, metric: &metric, uniformity: 0.0, max_search_radius: None, exclude_self: Some(PATCH) };
     let (nnf, _) = pm.nearest(&small, &small, seed, seed ^ 0x7a7e)?;
     // Distances at interior pixels; border pixels take the nearest interior one.
     let dist = |x: usize, y: usize| {
