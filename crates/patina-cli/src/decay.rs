@@ -62,7 +62,7 @@ pub struct Args {
     /// Output folder.
     #[arg(short, long)]
     pub out: PathBuf,
-    /// Number of frames (frame 0 shows the initial degree map).
+    /// Number of frames. Frame 0 shows the first texels of the initial degree map's patches (a tenth of their visible decay), which the next frames grow into the patches and beyond; a painted degree map, or a single frame, is shown whole.
     #[arg(long, default_value_t = 8, value_parser = |s: &str| crate::flags::count(s, 1, 1000))]
     pub frames: usize,
     /// Random seed: texture, degree map and growth; the same inputs and seed give the same bytes.

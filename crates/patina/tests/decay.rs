@@ -681,3 +681,28 @@ fn decay_takes_the_photos_exposure() {
     let ratio = y(mean_lab(&dark, &shown)[0]) / y(mean_lab(&lit, &shown)[0]);
     assert!(ratio < 0.6, "rust's luminance in the dim shot over the bright one: {ratio}");
 }
+
+#[test]
+fn patches_grow_from_their_first_texels() {
+    // Algorithm 1's patches shown whole in the first frame only swell after
+    // it; the first frame shows a tenth of their visible decay instead, and
+    // the frames grow it past the patches.
+    let (input, mask) = (photo(), object());
+    for class in [DecayClass::Rust, DecayClass::Mossy] {
+        let prep = decay::prepare(&input, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(class), 6).unwrap();
+        let onset = prep.texture.select_channels(3..4);
+        let patches = decay::visible_share(&prep.degree, &onset, &mask);
+        let frames = decay::sequence(&prep, 8, 6, None).unwrap();
+        let shares: Vec<f64> = frames.iter().map(|f| decay::visible_share(&f.degree, &onset, &mask)).collect();
+        assert!(shares[0] < 0.2 * patches, "{class:?}: frame 0 shows {} of the patches' {patches}", shares[0]);
+        assert!(shares[0] > 0.0, "{class:?}: frame 0 shows nothing");
+        assert!(shares[7] > patches, "{class:?}: the decay never grows past the patches: {shares:?}");
+        // The first texels lie in the patches.
+        for (d, p) in frames[0].degree.data().iter().zip(prep.degree.data()) {
+            assert!(*d <= *p, "{class:?}: frame 0 decays outside the initial patches");
+        }
+        // One frame asked for: the patches themselves.
+        let single = decay::sequence(&prep, 1, 6, None).unwrap();
+        assert_eq!(single[0].degree.data(), prep.degree.data(), "{class:?}");
+    }
+}

@@ -6,6 +6,8 @@
 //! object's shading ([`shading`]), an initial degree map ([`degree::initial`],
 //! Algorithm 1, or a user's painting), its diffusion over the frames
 //! ([`degree::Diffuser`], eqs. 4-7), and Lab compositing ([`composite`], eq. 3).
+//! Algorithm 1's patches are grown from their first texels over the first
+//! frames (not in the paper; see [`NUCLEATION`]).
 //! [`prepare`] does the once-per-photo work, [`sequence`] renders frames.
 
 pub mod composite;
@@ -91,7 +93,7 @@ pub struct Prepared {
     onset: Image,
     /// Relative shading and fine relief (linear luminance ratio, mean 1 in the log domain; see [`shading::relief`]).
     pub shading: Image,
-    /// The initial degree map (frame 0).
+    /// The initial degree map (Algorithm 1's or painted).
     pub degree: Image,
     /// Draws Algorithm 1 needed (0 for a painted degree map).
     pub draws: u64,
@@ -229,27 +231,38 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     })
 }
 
-/// Render `frames` frames: frame 0 composites the initial degree map, each
-/// later frame first runs one frame of diffusion and growth.
+/// Render `frames` frames: frame 0 composites the first texels of the
+/// initial degree map's patches (all of a painted map, or of any map when
+/// only one frame is asked for), later frames grow them into the patches
+/// and then run diffusion and growth, one simulated frame per frame, paced
+/// so the visible decay grows evenly.
 pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Progress>) -> Result<Vec<Frame>> {
     if frames == 0 {
         return Err(Error::invalid("--frames must be at least 1"));
     }
     // Simulate every frame's degree map (eqs. 4-7), then re-time them so
-    // the visible share grows evenly (see `paced`).
-    let mut simulated = vec![prep.degree.clone()];
+    // the visible share grows evenly (see `paced`). Algorithm 1's patches
+    // are grown from their first texels (see `nuclei`).
+    let mut simulated = Vec::with_capacity(frames + 1);
+    if frames > 1 && prep.draws > 0 {
+        simulated.push(nuclei(&prep.degree, &prep.onset, &prep.mask));
+    }
+    simulated.push(prep.degree.clone());
     let diffuser = degree::Diffuser::new(&prep.mask, prep.rate.as_ref(), &prep.params.diffusion);
     for k in 1..frames {
-        let mut d = simulated[k - 1].clone();
+        let mut d = simulated.last().expect("the initial map").clone();
         diffuser.step(&mut d, seed, k as u64);
         simulated.push(d);
     }
     let stain = prep.transition.field(prep.photo.width(), prep.photo.height(), seed);
     let coverage = composite::edge_coverage(&prep.mask);
-    let ends = (visible_share(&simulated[0], &prep.onset, &prep.mask), visible_share(&simulated[frames - 1], &prep.onset, &prep.mask));
+    let ends = (
+        visible_share(&simulated[0], &prep.onset, &prep.mask),
+        visible_share(simulated.last().expect("the initial map"), &prep.onset, &prep.mask),
+    );
     let mut out = Vec::with_capacity(frames);
     for k in 0..frames {
-        let degree = paced(&simulated, k, ends, &prep.onset, &prep.mask);
+        let degree = paced(&simulated, (k, frames), ends, &prep.onset, &prep.mask);
         let layers = composite::Layers {
             texture_lab: &prep.texture_lab,
             onset: &prep.onset,
@@ -288,17 +301,17 @@ fn mean_weight(degrees: impl Iterator<Item = f32>, onset: &Image, mask: &Mask) -
     sum / n.max(1) as f64
 }
 
-/// Frame `k`'s degree map, re-timed so the visible share grows evenly
-/// from the first simulated map's to the last's. Diffusion and growth
-/// spread the degree fast at first and then saturate (99% of the mask by
-/// frame 3 of 8), while what shows follows the texture's onsets; so frame
-/// k shows the simulation at the fractional time whose visible share is
-/// k/(K-1) of the way, interpolating between consecutive simulated maps.
-/// Each pixel still only grows, as the simulated maps do.
-fn paced(simulated: &[Image], k: usize, (v0, v1): (f64, f64), onset: &Image, mask: &Mask) -> Image {
+/// Frame `k` of `frames`' degree map, re-timed so the visible share grows
+/// evenly from the first simulated map's to the last's. Diffusion and
+/// growth spread the degree fast at first and then saturate (99% of the
+/// mask by frame 3 of 8), while what shows follows the texture's onsets;
+/// so frame k shows the simulation at the fractional time whose visible
+/// share is k/(K-1) of the way, interpolating between consecutive
+/// simulated maps. Each pixel still only grows, as the simulated maps do.
+fn paced(simulated: &[Image], (k, frames): (usize, usize), (v0, v1): (f64, f64), onset: &Image, mask: &Mask) -> Image {
     let last = simulated.len() - 1;
-    if last == 0 || k == 0 || k == last {
-        return simulated[k.min(last)].clone();
+    if last == 0 || k == 0 || k + 1 >= frames {
+        return simulated[if k == 0 { 0 } else { last }].clone();
     }
     // Simulated time f: between maps i and i + 1, with weight w on the later.
     let split = |f: f64| {
@@ -310,7 +323,7 @@ fn paced(simulated: &[Image], k: usize, (v0, v1): (f64, f64), onset: &Image, mas
         let between = simulated[i].data().iter().zip(simulated[i + 1].data()).map(|(x, y)| x + w * (y - x));
         mean_weight(between, onset, mask)
     };
-    let target = v0 + (v1 - v0) * k as f64 / last as f64;
+    let target = v0 + (v1 - v0) * k as f64 / (frames - 1) as f64;
     let (mut lo, mut hi) = (0.0f64, last as f64);
     for _ in 0..24 {
         let mid = 0.5 * (lo + hi);
@@ -324,4 +337,29 @@ fn paced(simulated: &[Image], k: usize, (v0, v1): (f64, f64), onset: &Image, mas
     let mut d = simulated[i].clone();
     d.data_mut().iter_mut().zip(simulated[i + 1].data()).for_each(|(x, y)| *x += w * (y - *x));
     d
+}
+
+/// Share of the initial map's visible decay that the first frame shows.
+pub const NUCLEATION: f64 = 0.1;
+
+/// Where Algorithm 1's patches start (not in the paper): the initial map
+/// scaled down until its visible share is [`NUCLEATION`] of its own, so
+/// the first frame shows each patch's earliest texels (its lowest onsets
+/// where the degree is highest) and the next frames grow them into the
+/// patches. Shown as it is, the initial map put every patch at full size
+/// into the first frame, after which the patches only swelled (a blind
+/// reviewer: "patches appear nearly full-size in frame 1").
+fn nuclei(initial: &Image, onset: &Image, mask: &Mask) -> Image {
+    let full = visible_share(initial, onset, mask);
+    let share = |s: f32| mean_weight(initial.data().iter().map(|d| s * d), onset, mask);
+    let (mut lo, mut hi) = (0.0f32, 1.0f32);
+    for _ in 0..24 {
+        let mid = 0.5 * (lo + hi);
+        if share(mid) < NUCLEATION * full {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    initial.map(|d| lo * d)
 }
