@@ -6,8 +6,8 @@
 //! object's shading ([`shading`]), an initial degree map ([`degree::initial`],
 //! Algorithm 1, or a user's painting), its diffusion over the frames
 //! ([`degree::Diffuser`], eqs. 4-7), and Lab compositing ([`composite`], eq. 3).
-//! Algorithm 1's patches are grown from their cores over the first frames
-//! (not in the paper; see [`NUCLEATION`]).
+//! Algorithm 1's patches are grown from their first texels over the first
+//! frames (not in the paper; see [`NUCLEATION`]).
 //! [`prepare`] does the once-per-photo work, [`sequence`] renders frames.
 
 pub mod composite;
@@ -231,9 +231,9 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     })
 }
 
-/// Render `frames` frames: frame 0 composites the cores of the initial
-/// degree map's patches (all of a painted map, or of any map when only one
-/// frame is asked for), later frames grow them out into the patches
+/// Render `frames` frames: frame 0 composites the first texels of the
+/// initial degree map's patches (all of a painted map, or of any map when
+/// only one frame is asked for), later frames grow them into the patches
 /// and then run diffusion and growth, one simulated frame per frame, paced
 /// so the visible decay grows evenly.
 pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Progress>) -> Result<Vec<Frame>> {
@@ -242,10 +242,10 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
     }
     // Simulate every frame's degree map (eqs. 4-7), then re-time them so
     // the visible share grows evenly (see `paced`). Algorithm 1's patches
-    // are grown from their cores (see `nucleation`).
-    let mut simulated = Vec::with_capacity(frames + STAGES);
+    // are grown from their first texels (see `nuclei`).
+    let mut simulated = Vec::with_capacity(frames + 1);
     if frames > 1 && prep.draws > 0 {
-        simulated.extend(nucleation(&prep.degree, &prep.onset, &prep.mask));
+        simulated.push(nuclei(&prep.degree, &prep.onset, &prep.mask));
     }
     simulated.push(prep.degree.clone());
     let diffuser = degree::Diffuser::new(&prep.mask, prep.rate.as_ref(), &prep.params.diffusion);
@@ -342,57 +342,24 @@ fn paced(simulated: &[Image], (k, frames): (usize, usize), (v0, v1): (f64, f64),
 /// Share of the initial map's visible decay that the first frame shows.
 pub const NUCLEATION: f64 = 0.1;
 
-/// Width of a growing patch's front, as a share of the patch's depth (its
-/// largest distance from its edge) ([`nucleation`]).
-const FRONT: f32 = 0.4;
-
-/// Maps between the nuclei and the initial map ([`nucleation`]): enough
-/// that the pacing's blend between two of them does not read as a fade.
-const STAGES: usize = 8;
-
-/// How Algorithm 1's patches start (not in the paper): each patch grows
-/// from its core out to its edge over the first frames. A pixel's depth g
-/// is its distance from the patch's edge over the patch's largest (1 at
-/// the core, 0 at the edge), and a stage with its front at c shows the
-/// initial map times clamp((g - c) / [`FRONT`], 0, 1). The first front is
-/// set (by bisection) where the visible share is [`NUCLEATION`] of the
-/// initial map's; [`STAGES`] fronts then move evenly out to the edge,
-/// where the stage is the initial map itself (not returned). Within a
-/// front the texels appear by their onsets, so the edge grows ragged.
-///
-/// Shown as it is, the initial map put every patch at full size into the
-/// first frame, after which the patches only swelled (a blind reviewer:
-/// "patches appear nearly full-size in frame 1"). Scaling the whole map
-/// down instead (tried first) grew the patches' texels everywhere at once,
-/// by onset: "the moss fades in like a dissolve instead of growing".
-fn nucleation(initial: &Image, onset: &Image, mask: &Mask) -> Vec<Image> {
-    let (w, h) = initial.size();
-    let patches = Mask::from_fn(w, h, |x, y| initial.at(x, y, 0) > 0.0);
-    let dist = patches.distance_inside();
-    let (label, count) = crate::image::region::components(patches.bits(), w, h);
-    let mut deepest = vec![0f32; count];
-    for (&l, &d) in label.iter().zip(&dist) {
-        if l != u32::MAX && d.is_finite() {
-            deepest[l as usize] = deepest[l as usize].max(d);
-        }
-    }
-    let depth: Vec<f32> =
-        label.iter().zip(&dist).map(|(&l, &d)| if l == u32::MAX { 0.0 } else { (d / deepest[l as usize].max(1.0)).min(1.0) }).collect();
-    let stage = |c: f32| -> Vec<f32> { initial.data().iter().zip(&depth).map(|(v, g)| v * ((g - c) / FRONT).clamp(0.0, 1.0)).collect() };
+/// Where Algorithm 1's patches start (not in the paper): the initial map
+/// scaled down until its visible share is [`NUCLEATION`] of its own, so
+/// the first frame shows each patch's earliest texels (its lowest onsets
+/// where the degree is highest) and the next frames grow them into the
+/// patches. Shown as it is, the initial map put every patch at full size
+/// into the first frame, after which the patches only swelled (a blind
+/// reviewer: "patches appear nearly full-size in frame 1").
+fn nuclei(initial: &Image, onset: &Image, mask: &Mask) -> Image {
     let full = visible_share(initial, onset, mask);
-    let (mut lo, mut hi) = (-FRONT, 1.0f32);
+    let share = |s: f32| mean_weight(initial.data().iter().map(|d| s * d), onset, mask);
+    let (mut lo, mut hi) = (0.0f32, 1.0f32);
     for _ in 0..24 {
         let mid = 0.5 * (lo + hi);
-        if mean_weight(stage(mid).into_iter(), onset, mask) > NUCLEATION * full {
+        if share(mid) < NUCLEATION * full {
             lo = mid;
         } else {
             hi = mid;
         }
     }
-    (0..STAGES)
-        .map(|k| {
-            let c = lo - (lo + FRONT) * k as f32 / STAGES as f32;
-            Image::from_data(w, h, 1, stage(c)).expect("one value per pixel")
-        })
-        .collect()
+    initial.map(|d| lo * d)
 }
