@@ -324,15 +324,7 @@ fn paced(simulated: &[Image], (k, frames): (usize, usize), (v0, v1): (f64, f64),
         mean_weight(between, onset, mask)
     };
     let target = v0 + (v1 - v0) * k as f64 / (frames - 1) as f64;
-    let (mut lo, mut hi) = (0.0f64, last as f64);
-    for _ in 0..24 {
-        let mid = 0.5 * (lo + hi);
-        if share_at(mid) < target {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
+    let (_, hi) = bisect((0.0, last as f64), |f| share_at(f) < target);
     let (i, w) = split(hi);
     let mut d = simulated[i].clone();
     d.data_mut().iter_mut().zip(simulated[i + 1].data()).for_each(|(x, y)| *x += w * (y - *x));
@@ -352,14 +344,22 @@ pub const NUCLEATION: f64 = 0.1;
 fn nuclei(initial: &Image, onset: &Image, mask: &Mask) -> Image {
     let full = visible_share(initial, onset, mask);
     let share = |s: f32| mean_weight(initial.data().iter().map(|d| s * d), onset, mask);
-    let (mut lo, mut hi) = (0.0f32, 1.0f32);
+    // The midpoints of 24 halvings of [0, 1] are exact in f32 too.
+    let (lo, _) = bisect((0.0, 1.0), |s| share(s as f32) < NUCLEATION * full);
+    let lo = lo as f32;
+    initial.map(|d| lo * d)
+}
+
+/// 24 halvings of `(lo, hi)` around where `below` stops holding (it holds
+/// at lo and not at hi, and changes once in between): the last interval.
+fn bisect((mut lo, mut hi): (f64, f64), below: impl Fn(f64) -> bool) -> (f64, f64) {
     for _ in 0..24 {
         let mid = 0.5 * (lo + hi);
-        if share(mid) < NUCLEATION * full {
+        if below(mid) {
             lo = mid;
         } else {
             hi = mid;
         }
     }
-    initial.map(|d| lo * d)
+    (lo, hi)
 }

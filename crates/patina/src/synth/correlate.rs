@@ -220,39 +220,41 @@ impl SpectralSource {
     /// source's channels, interleaved) under `mask` (kw x kh weights) and
     /// every placement in the source.
     pub fn add_term(&self, q: &mut Query, template: &[f32], mask: &[f32], scale: f32) {
-        let squares = self.mask_term(mask, q.kw, q.kh);
-        self.add_masked_term(q, template, mask, &squares, scale);
+        self.add_cross_terms(q, template, Some(mask), scale);
+        // The squares term goes through the query's own kernel buffer.
+        let mut kernel = std::mem::take(&mut q.kernel);
+        self.squares_spectrum(mask, q.kw, q.kh, &mut kernel, &mut q.scratch);
+        add_scaled(&mut q.acc, &kernel, scale);
+        q.kernel = kernel;
     }
 
     /// The squares term of a masked SSD, corr(M, Q), as a spectrum: it
     /// depends on the mask alone, so a caller querying many templates under
     /// a few masks (quilting's strip shapes) computes it once per mask.
     pub fn mask_term(&self, mask: &[f32], kw: usize, kh: usize) -> MaskTerm {
-        assert_eq!(mask.len(), kw * kh);
-        let mut kernel = vec![C32::new(0.0, 0.0); self.plans.spectrum_len()];
-        self.plans.forward(mask, kw, kh, &mut kernel, &mut Self::scratch(&self.plans));
-        kernel.iter_mut().zip(&self.squares).for_each(|(k, s)| *k = k.conj() * s);
-        MaskTerm { spectrum: kernel, kw, kh }
+        let mut spectrum = vec![C32::new(0.0, 0.0); self.plans.spectrum_len()];
+        self.squares_spectrum(mask, kw, kh, &mut spectrum, &mut Self::scratch(&self.plans));
+        MaskTerm { spectrum, kw, kh }
     }
 
     /// [`Self::add_term`] with the mask's squares term from [`Self::mask_term`].
     pub fn add_masked_term(&self, q: &mut Query, template: &[f32], mask: &[f32], squares: &MaskTerm, scale: f32) {
-        let (kw, kh, n) = (q.kw, q.kh, self.channels);
-        assert_eq!(template.len(), kw * kh * n);
-        assert_eq!(mask.len(), kw * kh);
-        assert!((squares.kw, squares.kh) == (kw, kh) && squares.spectrum.len() == q.acc.len(), "mask term of another size");
+        assert!((squares.kw, squares.kh) == (q.kw, q.kh) && squares.spectrum.len() == q.acc.len(), "mask term of another size");
         self.add_cross_terms(q, template, Some(mask), scale);
-        for (a, k) in q.acc.iter_mut().zip(&squares.spectrum) {
-            *a += k * scale;
-        }
+        add_scaled(&mut q.acc, &squares.spectrum, scale);
+    }
+
+    /// corr(M, Q)'s spectrum for a kw x kh `mask`, into `out`.
+    fn squares_spectrum(&self, mask: &[f32], kw: usize, kh: usize, out: &mut [C32], scratch: &mut Scratch) {
+        assert_eq!(mask.len(), kw * kh);
+        self.plans.forward(mask, kw, kh, out, scratch);
+        out.iter_mut().zip(&self.squares).for_each(|(k, s)| *k = k.conj() * s);
     }
 
     /// Add `scale` x the plain (unmasked) SSD between `template` and every
     /// placement: like [`Self::add_term`] with a mask of ones, but the
     /// squares term comes from a summed-area table instead of a transform.
     pub fn add_box_term(&self, q: &mut Query, template: &[f32], scale: f32) {
-        let (kw, kh, n) = (q.kw, q.kh, self.channels);
-        assert_eq!(template.len(), kw * kh * n);
         self.add_cross_terms(q, template, None, scale);
         q.box_scale += scale as f64;
     }
@@ -260,6 +262,8 @@ impl SpectralSource {
     /// The template-only and cross-correlation terms of a masked SSD.
     fn add_cross_terms(&self, q: &mut Query, template: &[f32], mask: Option<&[f32]>, scale: f32) {
         let n = self.channels;
+        assert_eq!(template.len(), q.kw * q.kh * n);
+        assert!(mask.is_none_or(|m| m.len() == q.kw * q.kh));
         for c in 0..n {
             let wc = self.weights[c];
             if wc == 0.0 {
@@ -309,6 +313,11 @@ impl SpectralSource {
         q.box_scale = 0.0;
         out
     }
+}
+
+/// `acc` += `scale` x `terms`.
+fn add_scaled(acc: &mut [C32], terms: &[C32], scale: f32) {
+    acc.iter_mut().zip(terms).for_each(|(a, k)| *a += k * scale);
 }
 
 /// Weighted linear autocorrelation of an image's channels,

@@ -22,7 +22,8 @@ const SWEEPS: usize = 2;
 pub struct Solver {
     /// Level 0 is the `w` x `h` grid; each next one is half the size.
     levels: Vec<Level>,
-    /// The rows each Gauss-Seidel band reads from outside itself.
+    /// The rows each Gauss-Seidel band reads from outside itself, sized
+    /// for level 0 (the coarser levels need less).
     halo: Vec<f32>,
 }
 
@@ -143,7 +144,7 @@ fn prolong_add(d: &mut [f32], w: usize, ec: &[f32], cw: usize, ch: usize) {
 
 /// Full multigrid on `levels[0]`: solve the restricted problem, prolong its
 /// solution as the start here, and finish with one V-cycle.
-fn full_multigrid(levels: &mut [Level], halo: &mut Vec<f32>, s: f32, lambda: f32) {
+fn full_multigrid(levels: &mut [Level], halo: &mut [f32], s: f32, lambda: f32) {
     let (fine, coarser) = levels.split_first_mut().expect("at least one level");
     fine.d.iter_mut().for_each(|v| *v = 0.0);
     if let Some(coarse) = coarser.first_mut() {
@@ -157,7 +158,7 @@ fn full_multigrid(levels: &mut [Level], halo: &mut Vec<f32>, s: f32, lambda: f32
 
 /// One V-cycle for (s L + lambda) d = b on `levels[0]` (L the graph
 /// Laplacian with Neumann boundaries, s the level's scale).
-fn v_cycle(levels: &mut [Level], halo: &mut Vec<f32>, s: f32, lambda: f32) {
+fn v_cycle(levels: &mut [Level], halo: &mut [f32], s: f32, lambda: f32) {
     let (fine, coarser) = levels.split_first_mut().expect("at least one level");
     let Some(coarse) = coarser.first_mut() else {
         for _ in 0..50 {
@@ -168,7 +169,7 @@ fn v_cycle(levels: &mut [Level], halo: &mut Vec<f32>, s: f32, lambda: f32) {
     for _ in 0..SWEEPS {
         gauss_seidel(fine, halo, s, lambda);
     }
-    residual(&fine.d, &fine.b, fine.w, fine.h, s, lambda, &mut fine.r);
+    residual(fine, s, lambda);
     restrict(&fine.r, fine.w, fine.h, &mut coarse.b);
     coarse.d.iter_mut().for_each(|v| *v = 0.0);
     v_cycle(coarser, halo, s / 4.0, lambda);
@@ -207,11 +208,10 @@ const BAND: usize = 16;
 /// rows in parallel, each reading the rows just outside it from a copy of
 /// them taken before the half-sweep (the same values it would read in
 /// place). Interior pixels take a branch-free path (four neighbours).
-fn gauss_seidel(level: &mut Level, halo: &mut Vec<f32>, s: f32, lambda: f32) {
+fn gauss_seidel(level: &mut Level, halo: &mut [f32], s: f32, lambda: f32) {
     let Level { w, h, ref b, ref mut d, .. } = *level;
     let inner = 1.0 / (4.0 * s + lambda);
     let bands = h.div_ceil(BAND);
-    halo.resize(halo.len().max(2 * bands * w), 0.0);
     for colour in 0..2 {
         for k in 0..bands {
             let (y0, y1) = (k * BAND, ((k + 1) * BAND).min(h));
@@ -254,9 +254,9 @@ fn gauss_seidel(level: &mut Level, halo: &mut Vec<f32>, s: f32, lambda: f32) {
     }
 }
 
-/// r = b - (s L + lambda) d.
-#[allow(clippy::too_many_arguments)]
-fn residual(d: &[f32], b: &[f32], w: usize, h: usize, s: f32, lambda: f32, r: &mut [f32]) {
+/// The level's residual r = b - (s L + lambda) d.
+fn residual(level: &mut Level, s: f32, lambda: f32) {
+    let Level { w, h, ref b, ref d, ref mut r } = *level;
     for_chunks(r, w, |y, row| {
         for (x, v) in row.iter_mut().enumerate() {
             let (sum, k) = neighbours(d, w, h, x, y);
