@@ -1,7 +1,8 @@
 //! Shaded previews of a material at time t (Meister et al., eqs. 6-7):
 //! Lambert diffuse plus a GGX microfacet specular lobe with Smith
 //! shadowing-masking and Schlick's Fresnel, on a flat plane (one texel per
-//! pixel) and on a sphere (the material wrapped by longitude and latitude).
+//! pixel) and on a sphere (the material mapped azimuthally about the point facing
+//! the viewer, [`sphere_point`]).
 //!
 //! A linear workflow, as a renderer would do it:
 //! - the colour parameters (Diffuse, Specular) are decoded from the
@@ -18,7 +19,8 @@
 //! The sphere is supersampled (3 x 3 per pixel, which also smooths its
 //! outline) and each sample reads a mip-mapped frame at the level its
 //! footprint asks for (trilinear), so texels are filtered, not skipped,
-//! where the sphere minifies them towards the limb.
+//! where the sphere minifies them towards the limb; where it magnifies
+//! them (a small capture), the finest level is read bicubically.
 //!
 //! Conventions: alpha = roughness^2; Ks is the Fresnel reflectance at
 //! normal incidence (F0); a `Normal` parameter is a tangent-space map
@@ -221,12 +223,18 @@ impl ShadingFrame {
         ShadingFrame { mips }
     }
 
-    /// Trilinear lookup at texel coordinates of the finest level (texel
-    /// centres at +0.5; wraps horizontally, clamps vertically), at mip
-    /// level `lod` (0 = finest).
-    fn sample(&self, fx: f32, fy: f32, lod: f32, out: &mut [f32], tmp: &mut [f32]) {
+    /// Lookup at texel coordinates of the finest level (texel centres at
+    /// +0.5, clamped at the edges) for a sample whose footprint spans
+    /// `footprint` finest texels: trilinear between the mip levels around
+    /// log2(footprint) when minified, Catmull-Rom on the finest level when
+    /// magnified (bilinear magnification showed a small capture's spots as
+    /// soft blobs on the sphere, review).
+    fn sample(&self, fx: f32, fy: f32, footprint: f32, out: &mut [f32], tmp: &mut [f32]) {
+        if footprint < 1.0 {
+            return catmull_rom(&self.mips[0], fx, fy, out);
+        }
         let top = (self.mips.len() - 1) as f32;
-        let lod = lod.clamp(0.0, top);
+        let lod = footprint.log2().clamp(0.0, top);
         let l0 = lod.floor() as usize;
         let a = lod - l0 as f32;
         bilinear(&self.mips[l0], fx, fy, self.mips[0].size(), out);
@@ -238,18 +246,48 @@ impl ShadingFrame {
 }
 
 /// Bilinear lookup in `level` at finest-level texel coordinates (`finest`
-/// is the finest level's size).
+/// is the finest level's size), clamped at the edges.
 fn bilinear(level: &Image, fx: f32, fy: f32, finest: (usize, usize), out: &mut [f32]) {
     let (w, h) = level.size();
-    let (x, y) = (fx * w as f32 / finest.0 as f32 - 0.5, (fy * h as f32 / finest.1 as f32 - 0.5).clamp(0.0, (h - 1) as f32));
+    let x = (fx * w as f32 / finest.0 as f32 - 0.5).clamp(0.0, (w - 1) as f32);
+    let y = (fy * h as f32 / finest.1 as f32 - 0.5).clamp(0.0, (h - 1) as f32);
     let (x0, y0) = (x.floor(), y.floor());
     let (ax, ay) = (x - x0, y - y0);
-    let wrap = |v: f32| (v as isize).rem_euclid(w as isize) as usize;
-    let (xa, xb) = (wrap(x0), wrap(x0 + 1.0));
-    let (ya, yb) = (y0 as usize, (y0 as usize + 1).min(h - 1));
+    let (xa, ya) = (x0 as usize, y0 as usize);
+    let (xb, yb) = ((xa + 1).min(w - 1), (ya + 1).min(h - 1));
     let (p00, p10, p01, p11) = (level.pixel(xa, ya), level.pixel(xb, ya), level.pixel(xa, yb), level.pixel(xb, yb));
     for (c, o) in out.iter_mut().enumerate() {
         *o = (1.0 - ay) * ((1.0 - ax) * p00[c] + ax * p10[c]) + ay * ((1.0 - ax) * p01[c] + ax * p11[c]);
+    }
+}
+
+/// Catmull-Rom (bicubic, a = -0.5) lookup in `img` at texel coordinates
+/// (centres at +0.5, clamped at the edges), each channel held within the
+/// range of the 2 x 2 texels around the point so edges do not ring.
+fn catmull_rom(img: &Image, fx: f32, fy: f32, out: &mut [f32]) {
+    let (w, h) = img.size();
+    let (x, y) = ((fx - 0.5).clamp(0.0, (w - 1) as f32), (fy - 0.5).clamp(0.0, (h - 1) as f32));
+    let (x0, y0) = (x.floor(), y.floor());
+    let weights = |t: f32| {
+        let (t2, t3) = (t * t, t * t * t);
+        [-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0, -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2]
+    };
+    let (wx, wy) = (weights(x - x0), weights(y - y0));
+    let at = |base: f32, k: usize, n: usize| (base as isize + k as isize - 1).clamp(0, n as isize - 1) as usize;
+    out.iter_mut().for_each(|o| *o = 0.0);
+    for (j, wyj) in wy.iter().enumerate() {
+        let row = at(y0, j, h);
+        for (i, wxi) in wx.iter().enumerate() {
+            let p = img.pixel(at(x0, i, w), row);
+            out.iter_mut().zip(p).for_each(|(o, v)| *o += wyj * wxi * v);
+        }
+    }
+    let (xa, ya) = (x0 as usize, y0 as usize);
+    let (xb, yb) = ((xa + 1).min(w - 1), (ya + 1).min(h - 1));
+    let corners = [img.pixel(xa, ya), img.pixel(xb, ya), img.pixel(xa, yb), img.pixel(xb, yb)];
+    for (c, o) in out.iter_mut().enumerate() {
+        let (lo, hi) = corners.iter().fold((f32::MAX, f32::MIN), |(lo, hi), p| (lo.min(p[c]), hi.max(p[c])));
+        *o = o.clamp(lo, hi);
     }
 }
 
@@ -269,6 +307,13 @@ struct Layout {
 /// captures): matte, since a captured albedo says nothing of gloss and a
 /// glossy default made rusted steel look lacquered.
 const DEFAULT_ROUGHNESS: f32 = 0.8;
+
+/// F0 of materials without a Specular parameter (albedo-only captures):
+/// none. A photo's colour already holds what the surface reflected under
+/// the capture's light, its sheen included; the 4% dielectric lobe added on
+/// top laid an even veil over rusted steel that lifted its darkest rust
+/// from 1 to 33 levels on the plane (review: washed out).
+const NO_SPECULAR: f32 = 0.0;
 
 /// Whether the normal map (channels `c..c + 3`) is DirectX-style, told from
 /// the Height parameter when there is one: a bump's normal leans away from
@@ -324,7 +369,7 @@ impl Layout {
         let green = if self.green_down { -1.0 } else { 1.0 };
         let normal =
             self.normal.map_or([0.0, 0.0, 1.0], |c| normalize([2.0 * p[c] - 1.0, green * (2.0 * p[c + 1] - 1.0), 2.0 * p[c + 2] - 1.0]));
-        (rgb(&self.kd, [0.5; 3]), rgb(&self.ks, [0.04; 3]), roughness.clamp(0.0, 1.0), normal)
+        (rgb(&self.kd, [0.5; 3]), rgb(&self.ks, [NO_SPECULAR; 3]), roughness.clamp(0.0, 1.0), normal)
     }
 }
 
@@ -346,16 +391,27 @@ const SPHERE_SS: usize = 3;
 const BACKDROP: f32 = 0.12;
 
 /// Texel coordinates of the sphere point at normalised screen position
-/// (u, v) (the material wrapped by longitude across the front half and by
-/// latitude), and its geometric normal; `None` off the sphere.
+/// (u, v), and its geometric normal; `None` off the sphere. The mapping is
+/// azimuthal equidistant about the point facing the viewer: a point at
+/// angle theta from it, in screen direction phi, reads the texel at
+/// distance theta / (pi / 2) of the inscribed disc's radius from the
+/// texture's centre, in direction phi. So texels keep one density along
+/// every meridian and there is no pole: the longitude-latitude wrap it
+/// replaces pinched the texture's top and bottom rows into the visible
+/// pole (review), and stretched its columns by 1 / cos(latitude).
 fn sphere_point(u: f32, v: f32, (w, h): (usize, usize)) -> Option<([f32; 2], [f32; 3])> {
     let z2 = 1.0 - u * u - v * v;
     if z2 <= 0.0 {
         return None;
     }
     let n = [u, v, z2.sqrt()];
-    let (lon, lat) = (n[0].atan2(n[2]), n[1].clamp(-1.0, 1.0).asin());
-    Some(([(lon / PI + 0.5) * w as f32, (0.5 - lat / PI) * h as f32], n))
+    let s = (u * u + v * v).sqrt();
+    let theta = s.atan2(n[2]);
+    let radius = 0.5 * w.min(h) as f32;
+    // Distance from the centre per unit of screen offset: theta / sin(theta)
+    // tends to 1 at the centre.
+    let k = if s > 1e-6 { theta / s } else { 1.0 } * radius / (PI / 2.0);
+    Some(([0.5 * w as f32 + k * u, 0.5 * h as f32 - k * v], n))
 }
 
 /// The material at time t wrapped on a sphere seen from the front, in a
@@ -389,17 +445,15 @@ fn sphere_sampled(material: &Material, t: f32, size: usize, lighting: &Lighting,
                     // The sample's footprint in texels: how far the texel
                     // coordinates move over one sample step on screen.
                     let reach = |du: f32, dv: f32| {
-                        sphere_point(u + du, v + dv, dims).or_else(|| sphere_point(u - du, v - dv, dims)).map_or(0.0, |(q, _)| {
-                            let dx = (q[0] - tc[0]).abs();
-                            let dx = dx.min(dims.0 as f32 - dx);
-                            (dx * dx + (q[1] - tc[1]).powi(2)).sqrt()
-                        })
+                        sphere_point(u + du, v + dv, dims)
+                            .or_else(|| sphere_point(u - du, v - dv, dims))
+                            .map_or(0.0, |(q, _)| ((q[0] - tc[0]).powi(2) + (q[1] - tc[1]).powi(2)).sqrt())
                     };
-                    let footprint = reach(step, 0.0).max(reach(0.0, step)).max(1.0);
-                    frame.sample(tc[0], tc[1], footprint.log2(), &mut value, &mut tmp);
+                    frame.sample(tc[0], tc[1], reach(step, 0.0).max(reach(0.0, step)), &mut value, &mut tmp);
                     let (kd, ks, rough, n_tan) = layout.texel(&value);
-                    // Tangent frame: T along longitude, B along latitude.
-                    let tangent = normalize([n_geo[2], 0.0, -n_geo[0]]);
+                    // Tangent frame: T along the texture's rows (the screen's x
+                    // axis in the tangent plane), B = N x T up its columns.
+                    let tangent = normalize([1.0 - n_geo[0] * n_geo[0], -n_geo[0] * n_geo[1], -n_geo[0] * n_geo[2]]);
                     let bitangent = [
                         n_geo[1] * tangent[2] - n_geo[2] * tangent[1],
                         n_geo[2] * tangent[0] - n_geo[0] * tangent[2],
@@ -496,6 +550,66 @@ mod tests {
         let (dark, light) = (p.at(1, 1, 0), p.at(5, 1, 0));
         assert!((light - dark) >= 0.8 * 0.45, "contrast {} of 0.45", light - dark);
         assert!((dark - 0.25).abs() < 0.08 && (light - 0.7).abs() < 0.08, "levels {dark} {light} against 0.25 and 0.7");
+        // Near-black rust keeps its level: no specular veil is added to an
+        // albedo-only capture (with a 4% lobe it showed at 0.15).
+        let mut black = m.clone();
+        black.coefficients.data_mut().chunks_exact_mut(2).for_each(|a| a[0] = a[0].min(0.05));
+        let shown = plane(&black, 0.5, &Lighting::default()).at(1, 1, 0);
+        assert!(shown < 0.08, "a 0.05 albedo shows at {shown}");
+    }
+
+    /// The sphere's mapping stretches the texture evenly: over the visible
+    /// surface up to 80 degrees from its centre, texels per unit of surface
+    /// differ by under 1.5x between places and directions (azimuthal
+    /// equidistant: radially constant, tangentially theta / sin theta). The
+    /// longitude-latitude wrap squeezed a whole row of texels into the pole.
+    #[test]
+    fn the_sphere_maps_texels_evenly_without_a_pole() {
+        let dims = (64, 64);
+        let tex = |n: [f32; 3]| sphere_point(n[0], n[1], dims).expect("on the sphere").0;
+        let (mut lo, mut hi) = (f32::MAX, 0.0f32);
+        for i in 1..=16 {
+            let theta = (i as f32 / 16.0) * 80f32.to_radians();
+            for j in 0..32 {
+                let phi = j as f32 / 32.0 * 2.0 * PI;
+                let at = |th: f32, ph: f32| [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+                let eps = 1e-3;
+                let p = tex(at(theta, phi));
+                // Texels moved per radian of surface, along the meridian
+                // and across it.
+                let radial = tex(at(theta + eps, phi));
+                let across = tex(at(theta, phi + eps / theta.sin()));
+                for q in [radial, across] {
+                    let d = ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)).sqrt() / eps;
+                    (lo, hi) = (lo.min(d), hi.max(d));
+                }
+            }
+        }
+        assert!(hi < 1.5 * lo, "texels per radian from {lo:.2} to {hi:.2}");
+    }
+
+    /// A magnified capture stays crisp: single-texel stripes on a sphere
+    /// that shows each texel over about 6 pixels keep most of their
+    /// contrast at the centre (bicubic: a row's std is 0.50 of the stripes'
+    /// half-difference); bilinear magnification turns them into a triangle
+    /// wave (0.41, which fails the bound 0.45).
+    #[test]
+    fn the_sphere_keeps_magnified_texels_crisp() {
+        use crate::stbrdf::Param;
+        let coef = Image::from_fn(16, 16, 6, |x, _, p| {
+            for c in 0..3 {
+                p[2 * c] = if x % 2 == 0 { 0.3 } else { 0.6 };
+            }
+        });
+        let m = Material::new(1, vec![Param { name: "Diffuse".into(), channels: 3 }], coef).unwrap();
+        let flat = Lighting { light: [0.0, 0.0, 1.0], ambient: 0.0, ..Lighting::default() };
+        let img = sphere(&m, 0.0, 64, &flat);
+        let row: Vec<f32> = (26..38).map(|x| img.at(x, 32, 0)).collect();
+        let mean = row.iter().sum::<f32>() / row.len() as f32;
+        let std = (row.iter().map(|v| (v - mean).powi(2)).sum::<f32>() / row.len() as f32).sqrt();
+        let texels: Vec<f32> = [0.3f32, 0.6].iter().map(|&v| linear_to_srgb(pbr_neutral([srgb_to_linear(v); 3])[0])).collect();
+        let full = 0.5 * (texels[1] - texels[0]);
+        assert!(std > 0.45 * full, "stripe std {std:.3} of {full:.3}");
     }
 
     /// A checker minified on the sphere is filtered: each pixel is close to

@@ -147,7 +147,8 @@ pub fn shaderlab(material: &Material) -> String {
     surf += &match has("specular") {
         Some(3) => format!("            o.Specular = {};\n", decode("m.specular")),
         Some(1) => format!("            o.Specular = {};\n", decode("m.specular.xxx")),
-        _ => "            o.Specular = 0.04;\n".into(),
+        // As the previews: an albedo-only capture's colour already holds its sheen.
+        _ => "            o.Specular = 0.0;\n".into(),
     };
     surf += match has("roughness") {
         Some(1) => "            o.Smoothness = 1.0 - saturate(m.roughness);\n",
