@@ -161,6 +161,13 @@ pub struct TransferArgs {
     /// Soften the mask's edge inwards over this many pixels (a Gaussian of this sigma, never reaching outside it).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub feather: f32,
+    /// grow: width (Gaussian sigma, px) of the glaze the material bleeds into the target around what has arrived
+    /// (rust staining the paint around its spots, in the material's own hue); 0 for no glaze and no runoff.
+    #[arg(long, default_value_t = transfer::HALO, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1000.0))]
+    pub halo: f32,
+    /// grow: how far (px) the glaze runs down the image below what has arrived, in streaks (rust's runoff); 0 for none.
+    #[arg(long, default_value_t = transfer::RUNOFF, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100000.0))]
+    pub runoff: f32,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -436,7 +443,14 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
         ModeArg::Offset => transfer::Mode::Offset,
         ModeArg::Auto => transfer::Mode::Auto,
     };
-    let params = transfer::TransferParams { t0: args.t0, guide_weight: args.guide_weight, mode, ..Default::default() };
+    let params = transfer::TransferParams {
+        t0: args.t0,
+        guide_weight: args.guide_weight,
+        mode,
+        halo: args.halo,
+        runoff: args.runoff,
+        ..Default::default()
+    };
     let moved = with_bar("transfer", |report| transfer::transfer(&material, &target, mask.as_ref(), &params, args.seed, Some(report)))?;
     let mut manifest = Manifest::new("stbrdf transfer", args.seed);
     manifest.timings_ms.insert("transfer".into(), clock.lap());

@@ -18,6 +18,7 @@ pub mod noise;
 pub mod region;
 pub mod resample;
 pub mod sequence;
+pub mod stain;
 pub mod summed;
 
 use crate::error::{Error, Result};

@@ -63,11 +63,12 @@
 //! constant polynomial (bit-identical at every t).
 
 use super::enlarge::{enlarge, EnlargeParams};
-use super::material::Material;
+use super::material::{Encoding, Material};
 use super::poly::{evaluate, Fitter};
 use crate::error::{Error, Result};
-use crate::image::color::{luminance, pixel_luminance};
+use crate::image::color::{linear_to_srgb, luminance, pixel_luminance, srgb_to_linear};
 use crate::image::filter::{equalize, gaussian_blur};
+use crate::image::stain::Transition;
 use crate::image::{Image, Mask};
 use crate::synth::{OptimizeParams, Progress};
 use rayon::prelude::*;
@@ -126,8 +127,20 @@ pub struct TransferParams {
     /// came out flat, blotchy and too few (review).
     pub guide_weight: Option<f32>,
     pub mode: Mode,
+    /// [`Mode::Grow`]: width (sigma, px) of the glaze the material bleeds
+    /// into the target around what has arrived ([`stain`]); 0 for none.
+    pub halo: f32,
+    /// [`Mode::Grow`]: how far (px) the glaze runs down the image below
+    /// what has arrived, in streaks; 0 for none.
+    pub runoff: f32,
     pub optimize: OptimizeParams,
 }
+
+/// [`TransferParams::halo`]'s default: about half a rust spot of the
+/// rusting-steel capture.
+pub const HALO: f32 = 6.0;
+/// [`TransferParams::runoff`]'s default.
+pub const RUNOFF: f32 = 80.0;
 
 /// [`Mode::Grow`]'s default guide weight. Stronger guides copied fewer and
 /// fewer spots (at 0.5, a third fewer changed at t = 1 on the hydrant) and
@@ -145,7 +158,7 @@ impl TransferParams {
 
 impl Default for TransferParams {
     fn default() -> Self {
-        TransferParams { t0: 0.0, guide_weight: None, mode: Mode::Grow, optimize: OptimizeParams::default() }
+        TransferParams { t0: 0.0, guide_weight: None, mode: Mode::Grow, halo: HALO, runoff: RUNOFF, optimize: OptimizeParams::default() }
     }
 }
 
@@ -214,7 +227,17 @@ pub fn transfer(
         chosen => chosen,
     };
     let (degree, coefficients) = match mode {
-        Mode::Grow => grow(&synthesized, target, mask, kd.clone(), t0, &Pace::of(material, kd, &source_timing), seed)?,
+        Mode::Grow => {
+            let pace = Pace::of(material, kd.clone(), &source_timing);
+            let glaze = Transition {
+                width: params.halo,
+                tint: glaze_tint(&pace, material.encoding),
+                strength: GLAZE,
+                offset: [0.0; 2],
+                drip: params.runoff,
+            };
+            grow(&synthesized, target, mask, kd, t0, &pace, &glaze, seed)?
+        }
         _ => (material.degree, scaled(&synthesized, target, kd, t0, mode)),
     };
     let mut out = Material::new(degree, material.params.clone(), coefficients)?;
@@ -597,6 +620,7 @@ fn grow(
     kd: std::ops::Range<usize>,
     t0: f32,
     pace: &Pace,
+    glaze: &Transition,
     seed: u64,
 ) -> Result<(usize, Image)> {
     let m = material.degree + 1;
@@ -611,6 +635,17 @@ fn grow(
     let exposed = exposure(target, mask);
     let mut arrivals = paced(&timing, &exposed, mask, pace);
     dither(&mut arrivals, target.width(), seed);
+    let coefficients = &material.coefficients;
+    let n = coefficients.channels();
+    let ends: Vec<[f32; 3]> = coefficients
+        .data()
+        .par_chunks(n)
+        .map(|a| std::array::from_fn(|k| evaluate(&a[(kd.start + k) * m..(kd.start + k + 1) * m], end_at)))
+        .collect();
+    let ends: Vec<([f32; 3], f32)> =
+        ends.par_iter().enumerate().map(|(i, &end)| end_state(&timing, pace, i, end, exposed.data()[i])).collect();
+    let glazes = stain(glaze, target.size(), &arrivals, &ends, mask, seed);
+    let linear = material.encoding == Encoding::Srgb;
     // The cover: 0 up to t0, then a smoothstep of half-width GROW_FRONT
     // around the arrival, which is never before GROW_FRONT (nothing has
     // arrived at t0 itself) and, for texels that arrive, never after
@@ -639,8 +674,6 @@ fn grow(
         .collect();
     let lums = on_object(lum.data(), mask);
     let median = if lums.is_empty() { 1.0 } else { quantile(&lums, 0.5).max(1e-3) };
-    let coefficients = &material.coefficients;
-    let n = coefficients.channels();
     let mut out = Image::new(coefficients.width(), coefficients.height(), channels * mo);
     out.data_mut()
         .par_chunks_mut(channels * mo)
@@ -653,15 +686,27 @@ fn grow(
             |(cover, q), (i, (((o, a), want), &l))| {
                 let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1) * relief[i];
                 cover_of(arrivals[i], cover);
-                let end: [f32; 3] = std::array::from_fn(|k| evaluate(&a[(kd.start + k) * m..(kd.start + k + 1) * m], end_at));
-                let (colour, opacity) = end_state(&timing, pace, i, end, exposed.data()[i]);
+                let (colour, opacity) = ends[i];
                 for c in 0..channels {
                     let poly = &a[c * m..(c + 1) * m];
                     let diffuse = kd.contains(&c);
                     let base = if diffuse { want[c - kd.start] } else { evaluate(poly, t0) };
                     let arrived = if diffuse { base + opacity * (shading * colour[c - kd.start] - base) } else { evaluate(poly, end_at) };
-                    for (qk, &ck) in q.iter_mut().zip(cover.iter()) {
-                        *qk = ck * (arrived - base);
+                    // The glaze multiplies the target (in linear light) where
+                    // the material has not arrived itself.
+                    let glazed = if diffuse && !glazes.is_empty() {
+                        let tint = glaze.tint[c - kd.start];
+                        if linear {
+                            linear_to_srgb(srgb_to_linear(base.clamp(0.0, 1.0)) * tint) - base
+                        } else {
+                            base * tint - base
+                        }
+                    } else {
+                        0.0
+                    };
+                    for ((qk, &ck), &t) in q.iter_mut().zip(cover.iter()).zip(&times) {
+                        let g = if glazed != 0.0 { glaze_at(&glazes, i, (t - t0) / (end_at - t0)) } else { 0.0 };
+                        *qk = ck * (arrived - base) + g * glazed;
                     }
                     let dst = &mut o[c * mo..(c + 1) * mo];
                     fitter.fit_into(q, dst);
@@ -670,6 +715,79 @@ fn grow(
             },
         );
     Ok((out_degree, out))
+}
+
+/// Strength of [`Mode::Grow`]'s glaze at the rim of a large arrived patch.
+const GLAZE: f32 = 0.8;
+/// Times (evenly spaced over (t0, t_D]) at which the glaze is laid out;
+/// between them a texel's glaze is interpolated linearly in time.
+const GLAZE_KEYS: usize = 6;
+
+/// The glaze's tint (a factor in linear light): a film of a quarter of
+/// the material's optical depth (Beer-Lambert: its mean end state
+/// [`Pace::colour`], linear, to the power 1/4). Rust's dark brown gives
+/// about (0.51, 0.35, 0.24), a brown glaze that shows on orange paint as
+/// well as on grey; a white material gives none. Normalised to keep the
+/// red channel whole, it only reddened orange paint, and nobody saw it.
+fn glaze_tint(pace: &Pace, encoding: Encoding) -> [f32; 3] {
+    pace.colour.map(|v| if encoding == Encoding::Srgb { srgb_to_linear(v.clamp(0.0, 1.0)) } else { v.clamp(0.0, 1.0) }.powf(GLAZE_DEPTH))
+}
+
+/// The glaze's share of the material's optical depth ([`glaze_tint`]).
+const GLAZE_DEPTH: f32 = 0.25;
+
+/// [`Mode::Grow`]'s glaze ([`crate::image::stain`]): around what has
+/// arrived, and in streaks below it, the material's colour soaks into the
+/// target as a translucent film (rust bleeding into paint and running
+/// down it; reviewers read the rust without it as flat pasted spots). At
+/// each of [`GLAZE_KEYS`] times, the visible weight (cover times opacity,
+/// `ends`) is laid out as a stain zone; the result is the zone's weight
+/// per key, key-major (empty for no zone, or nothing arriving). Inside a
+/// mask only: its outside is the target's anyway.
+fn stain(
+    glaze: &Transition,
+    (w, h): (usize, usize),
+    arrivals: &[f32],
+    ends: &[([f32; 3], f32)],
+    mask: Option<&Image>,
+    seed: u64,
+) -> Vec<f32> {
+    let Some(field) = glaze.field(w, h, seed) else { return Vec::new() };
+    if !arrivals.iter().any(|&a| a <= 1.0) {
+        return Vec::new();
+    }
+    let begun = mask.cloned().unwrap_or_else(|| Image::from_fn(w, h, 1, |_, _, p| p[0] = 1.0));
+    let mut out = Vec::with_capacity(GLAZE_KEYS * w * h);
+    for k in 1..=GLAZE_KEYS {
+        let tau = k as f32 / GLAZE_KEYS as f32;
+        let mut visible = Image::new(w, h, 1);
+        visible.data_mut().par_iter_mut().enumerate().for_each(|(i, v)| {
+            let a = arrivals[i];
+            if a <= 1.0 {
+                let a = a.clamp(GROW_FRONT, 1.0 - GROW_FRONT);
+                *v = ends[i].1 * smoothstep(a - GROW_FRONT, a + GROW_FRONT, tau);
+            }
+        });
+        out.extend(field.weights(&visible, &begun));
+    }
+    out
+}
+
+/// Texel `i`'s glaze at progress `tau` (0 at t0, 1 at t_D): linear between
+/// [`stain`]'s keys, 0 at tau <= 0.
+fn glaze_at(glazes: &[f32], i: usize, tau: f32) -> f32 {
+    if tau <= 0.0 {
+        return 0.0;
+    }
+    let n = glazes.len() / GLAZE_KEYS;
+    let x = (tau * GLAZE_KEYS as f32).min(GLAZE_KEYS as f32);
+    let k = x.floor() as usize;
+    let a = x - k as f32;
+    let at = |k: usize| if k == 0 { 0.0 } else { glazes[(k - 1) * n + i] };
+    if k >= GLAZE_KEYS {
+        return at(GLAZE_KEYS);
+    }
+    at(k) + a * (at(k + 1) - at(k))
 }
 
 /// Strength (an exponent) and limits of the target's fine relief over its
