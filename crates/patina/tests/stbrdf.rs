@@ -322,3 +322,89 @@ fn grown_rust_gathers_where_water_stands() {
     assert!(low > 2.0 && rim > 1.5, "rust gathers low ({low:.2}) and at the rims ({rim:.2})");
     assert!(flat_low < 2.0 && flat_rim < 1.5, "the measure tells an even spread: {flat_low:.2}, {flat_rim:.2}");
 }
+
+/// Grow-mode rust glazes the paint around what has arrived and runs down
+/// below it (the material's colour soaking into the target; without it
+/// the spots read as pasted). Ground truth: the same transfer without the
+/// glaze (`halo` 0), which leaves every texel the material has not reached
+/// exactly the target's, and without the runoff (`runoff` 0). Measured at
+/// t = 1 on paint texels the rust itself has not reached: those within
+/// 4 px of rust darken and turn browner, and the runoff darkens those
+/// 8-30 px below rust (and over 6 px from any) and not those above it.
+#[test]
+fn arrived_rust_glazes_the_paint_around_and_below_it() {
+    use patina::stbrdf::transfer::{transfer, TransferParams, HALO};
+    let (_, material) = rusting_material();
+    let (w, h) = (128, 160);
+    let target = Image::from_fn(w, h, 3, |x, y, p| {
+        let grain = 0.12 * (samples::fractal_noise(9, x as f32, y as f32, 12.0, 4) - 0.5);
+        p.copy_from_slice(&[0.85 + grain, 0.5 + grain, 0.25 + grain]);
+    });
+    let run = |halo: f32, runoff: Option<f32>| {
+        let mut params = TransferParams { halo, ..TransferParams::default() };
+        params.runoff = runoff.unwrap_or(params.runoff);
+        basecolor(&transfer(&material, &target, None, &params, 2, None).unwrap().material, 1.0)
+    };
+    let (glazed, no_runoff, bare) = (run(HALO, None), run(HALO, Some(0.0)), run(0.0, None));
+    // Rust: where the unglazed result differs from the target at all.
+    let rust: Vec<bool> = bare
+        .data()
+        .chunks_exact(3)
+        .zip(target.data().chunks_exact(3))
+        .map(|(a, b)| a.iter().zip(b).any(|(p, q)| (p - q).abs() > 0.01))
+        .collect();
+    let near = |x: usize, y: usize, r: isize| {
+        (-r..=r).any(|dy| {
+            (-r..=r).any(|dx| {
+                let (nx, ny) = (x as isize + dx, y as isize + dy);
+                nx >= 0
+                    && ny >= 0
+                    && (nx as usize) < w
+                    && (ny as usize) < h
+                    && dx * dx + dy * dy <= r * r
+                    && rust[ny as usize * w + nx as usize]
+            })
+        })
+    };
+    let column = |x: usize, y: usize, from: isize, to: isize| {
+        (from..=to).any(|d| (0..h as isize).contains(&(y as isize + d)) && rust[(y as isize + d) as usize * w + x])
+    };
+    // Mean darkening and change of blue over red of `img` against the
+    // target over the paint texels `pick` chooses.
+    let change = |img: &Image, pick: &dyn Fn(usize, usize) -> bool| {
+        let (mut dl, mut db, mut n) = (0f64, 0f64, 0usize);
+        for y in 0..h {
+            for x in 0..w {
+                if !rust[y * w + x] && pick(x, y) {
+                    let (g, t) = (img.pixel(x, y), target.pixel(x, y));
+                    dl += f64::from((t[0] + t[1] + t[2]) - (g[0] + g[1] + g[2])) / 3.0;
+                    db += f64::from(g[2] / g[0].max(1e-3) - t[2] / t[0].max(1e-3));
+                    n += 1;
+                }
+            }
+        }
+        (dl / n.max(1) as f64, db / n.max(1) as f64, n)
+    };
+    let untouched = bare.data().iter().zip(target.data()).zip(rust.iter().flat_map(|&r| [r; 3])).all(|((a, b), r)| r || a == b);
+    assert!(untouched, "without the glaze, paint the rust has not reached stays the target's");
+    let (near_dark, near_hue, _) = change(&glazed, &|x, y| near(x, y, 4));
+    eprintln!("within 4 px of rust: darker by {near_dark:.4}, blue over red {near_hue:+.4}");
+    assert!(
+        near_dark > 0.03 && near_hue < -0.01,
+        "the paint beside rust takes a brown glaze: {near_dark:.4} darker, blue/red {near_hue:+.4}"
+    );
+    let below = |x: usize, y: usize| !near(x, y, 6) && column(x, y, -30, -8);
+    let above = |x: usize, y: usize| !near(x, y, 6) && column(x, y, 8, 30) && !column(x, y, -30, -8);
+    let runoff = |pick: &dyn Fn(usize, usize) -> bool| {
+        let ((with, _, n), (without, _, _)) = (change(&glazed, pick), change(&no_runoff, pick));
+        (with - without, n)
+    };
+    let ((down, n_down), (up, n_up)) = (runoff(&below), runoff(&above));
+    eprintln!("runoff's darkening: {down:.4} below rust ({n_down} px), {up:.4} above ({n_up} px)");
+    // Texels above rust get some runoff from rust further up (0.0043
+    // against 0.0107 below, measured).
+    assert!(
+        n_down > 20 && n_up > 20 && down > 0.005 && down > 2.0 * up.max(0.0),
+        "the runoff runs down: {down:.4} below rust, {up:.4} above"
+    );
+}
