@@ -408,3 +408,34 @@ fn arrived_rust_glazes_the_paint_around_and_below_it() {
         "the runoff runs down: {down:.4} below rust, {up:.4} above"
     );
 }
+
+/// With a mask, grown rust takes hold where water stands first and climbs
+/// from there: when a quarter of the final rust has arrived, the top third
+/// of the object holds under half the part of it (against the bottom
+/// third) that it holds at t = 1 (the wet places lead the timing, not only
+/// the choice; without that lead it holds 1.2x that part).
+#[test]
+fn grown_rust_starts_low_and_climbs() {
+    use patina::stbrdf::transfer::{transfer, TransferParams};
+    let (_, material) = rusting_material();
+    let (w, h) = (128, 160);
+    let target = Image::from_fn(w, h, 3, |x, y, p| {
+        let grain = 0.12 * (samples::fractal_noise(9, x as f32, y as f32, 12.0, 4) - 0.5);
+        p.copy_from_slice(&[0.85 + grain, 0.5 + grain, 0.25 + grain]);
+    });
+    let inside = |x: usize, y: usize| (16..112).contains(&x) && (16..144).contains(&y);
+    let mask = Image::from_fn(w, h, 1, |x, y, p| p[0] = if inside(x, y) { 1.0 } else { 0.0 });
+    let out = transfer(&material, &target, Some(&mask), &TransferParams::default(), 2, None).unwrap().material;
+    let shares = |t: f32| {
+        let img = basecolor(&out, t);
+        let share = |only: &dyn Fn(usize, usize) -> bool| rusted_share(&img, &target, &|i| inside(i % w, i / w) && only(i % w, i / w));
+        (share(&|_, _| true), share(&|_, y| y >= 101), share(&|_, y| y < 59))
+    };
+    let (total, low_end, high_end) = shares(1.0);
+    let t = (1..20).map(|k| k as f32 / 20.0).find(|&t| shares(t).0 >= 0.25 * total).expect("rust arrives");
+    let (_, low, high) = shares(t);
+    // The top third's part of the rust in the top and bottom thirds.
+    let (early, late) = (high / (low + high).max(1e-6), high_end / (low_end + high_end).max(1e-6));
+    eprintln!("t = {t}: the top third holds {early:.3} of the top and bottom thirds' rust; at t = 1 {late:.3}");
+    assert!(early < 0.5 * late, "rust starts low: the top holds {early:.3} of the rust at t = {t} against {late:.3} at t = 1");
+}
