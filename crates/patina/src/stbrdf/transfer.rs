@@ -47,6 +47,12 @@
 //!     the scale of its form ([`SHADING_SIGMA`]) and limited ([`SHADING_RANGE`]).
 //!   - The arrivals are dithered by fine noise ([`dither`]), so a passing
 //!     front is a grain, not a translucent blur.
+//!   - With a mask, wet places (the object's bottom and rims) are reached
+//!     first ([`WET_LEAD`]), so the rust climbs the object.
+//!   - What has arrived glazes the target around it and runs down below
+//!     it in streaks ([`stain`], [`TransferParams::halo`] and
+//!     [`TransferParams::runoff`]), and stands proud of it: its upper edge
+//!     lit and the surface just below it shadowed ([`lips`]).
 //!   - The synthesis is guided, given a mask, by the material's density of
 //!     change against where water stands on the object ([`density_guides`]),
 //!     lightly, and without one runs unguided
@@ -240,7 +246,7 @@ pub fn transfer(
                 offset: [0.0; 2],
                 drip: params.runoff,
             };
-            grow(&synthesized, target, mask, wet.as_ref(), kd, t0, &pace, &glaze, seed)?
+            grow(&synthesized, target, kd, t0, &Place { mask, wet: wet.as_ref(), pace: &pace, glaze: &glaze }, seed)?
         }
         _ => (material.degree, scaled(&synthesized, target, kd, t0, mode)),
     };
@@ -628,22 +634,25 @@ fn dither(arrivals: &mut [f32], width: usize, seed: u64) {
     }
 }
 
+/// Where and how [`Mode::Grow`]'s material lands on the target.
+struct Place<'a> {
+    /// The object ([`transfer`]'s mask), if any.
+    mask: Option<&'a Image>,
+    /// Where water stands on it ([`wetness`]), with a mask.
+    wet: Option<&'a Image>,
+    /// The source's pace.
+    pace: &'a Pace,
+    /// The glaze around what has arrived.
+    glaze: &'a Transition,
+}
+
 /// [`Mode::Grow`] (module docs): per texel, the cover c(t) from its arrival
 /// ([`Timing::arrival`]), the Diffuse pulled from the target towards what
 /// the material becomes there (lit by the target's shading) by c, every
 /// other parameter from its t0 value towards its value then by c, refitted
 /// pinned at t0.
-fn grow(
-    material: &Material,
-    target: &Image,
-    mask: Option<&Image>,
-    wet: Option<&Image>,
-    kd: std::ops::Range<usize>,
-    t0: f32,
-    pace: &Pace,
-    glaze: &Transition,
-    seed: u64,
-) -> Result<(usize, Image)> {
+fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32, place: &Place, seed: u64) -> Result<(usize, Image)> {
+    let Place { mask, wet, pace, glaze } = *place;
     let m = material.degree + 1;
     let out_degree = material.degree.max(GROW_DEGREE);
     let samples = 4 * (out_degree + 1);
@@ -665,7 +674,9 @@ fn grow(
         .collect();
     let ends: Vec<([f32; 3], f32)> =
         ends.par_iter().enumerate().map(|(i, &end)| end_state(&timing, pace, i, end, exposed.data()[i])).collect();
-    let glazes = stain(glaze, target.size(), &arrivals, &ends, mask, seed);
+    let visible: Vec<Image> = (1..=KEYS).map(|k| visible_at(target.size(), &arrivals, &ends, k as f32 / KEYS as f32)).collect();
+    let glazes = stain(glaze, &visible, mask, seed);
+    let lips = lips(&visible);
     let linear = material.encoding == Encoding::Srgb;
     // The cover: 0 up to t0, then a smoothstep of half-width GROW_FRONT
     // around the arrival, which is never before GROW_FRONT (nothing has
@@ -726,8 +737,12 @@ fn grow(
                         0.0
                     };
                     for ((qk, &ck), &t) in q.iter_mut().zip(cover.iter()).zip(&times) {
-                        let g = if glazed != 0.0 { glaze_at(&glazes, i, (t - t0) / (end_at - t0)) } else { 0.0 };
-                        *qk = ck * (arrived - base) + g * glazed;
+                        let tau = (t - t0) / (end_at - t0);
+                        let g = if glazed != 0.0 { keyed(&glazes, i, tau) } else { 0.0 };
+                        let value = base + ck * (arrived - base) + g * glazed;
+                        // The arrived material's lip (Diffuse only).
+                        let lip = if diffuse { 1.0 + LIP * keyed(&lips, i, tau) } else { 1.0 };
+                        *qk = value * lip - base;
                     }
                     let dst = &mut o[c * mo..(c + 1) * mo];
                     fitter.fit_into(q, dst);
@@ -740,9 +755,50 @@ fn grow(
 
 /// Strength of [`Mode::Grow`]'s glaze at the rim of a large arrived patch.
 const GLAZE: f32 = 0.8;
-/// Times (evenly spaced over (t0, t_D]) at which the glaze is laid out;
-/// between them a texel's glaze is interpolated linearly in time.
-const GLAZE_KEYS: usize = 6;
+/// Times (evenly spaced over (t0, t_D]) at which the glaze and the lips
+/// are laid out; between them a texel's are interpolated linearly in time.
+const KEYS: usize = 6;
+
+/// The visible weight of what has arrived at progress `tau`: each texel's
+/// cover (as `grow` times it) times its opacity (`ends`).
+fn visible_at((w, h): (usize, usize), arrivals: &[f32], ends: &[([f32; 3], f32)], tau: f32) -> Image {
+    let mut visible = Image::new(w, h, 1);
+    visible.data_mut().par_iter_mut().enumerate().for_each(|(i, v)| {
+        let a = arrivals[i];
+        if a <= 1.0 {
+            let a = a.clamp(GROW_FRONT, 1.0 - GROW_FRONT);
+            *v = ends[i].1 * smoothstep(a - GROW_FRONT, a + GROW_FRONT, tau);
+        }
+    });
+    visible
+}
+
+/// Strength of the arrived material's lip: the share by which the top edge
+/// of a patch brightens and the surface just below it darkens.
+const LIP: f32 = 0.4;
+/// Softness (sigma, px) of the lip.
+const LIP_SIGMA: f32 = 0.8;
+
+/// Per key (key-major), the lip of what has arrived: rust scale stands
+/// proud of the paint it lifts, so under light from above a patch's upper
+/// edge catches the light and it shadows the surface just below it
+/// (review: "no blistered or flaking paint edges", spots read as flat
+/// decals). The visible weight blurred at [`LIP_SIGMA`], the texel below
+/// minus the texel above, in [-1, 1]. Simplification: the light is taken
+/// from above, as most photos are lit; the photo's own light direction
+/// is not estimated.
+fn lips(visible: &[Image]) -> Vec<f32> {
+    let mut out = Vec::with_capacity(visible.iter().map(|v| v.data().len()).sum());
+    for v in visible {
+        let b = gaussian_blur(v, LIP_SIGMA);
+        let (w, h) = b.size();
+        out.extend((0..w * h).map(|i| {
+            let (x, y) = (i % w, i / w);
+            b.at(x, (y + 1).min(h - 1), 0) - b.at(x, y.saturating_sub(1), 0)
+        }));
+    }
+    out
+}
 
 /// The glaze's tint (a factor in linear light): a film of a quarter of
 /// the material's optical depth (Beer-Lambert: its mean end state
@@ -761,52 +817,35 @@ const GLAZE_DEPTH: f32 = 0.25;
 /// arrived, and in streaks below it, the material's colour soaks into the
 /// target as a translucent film (rust bleeding into paint and running
 /// down it; reviewers read the rust without it as flat pasted spots). At
-/// each of [`GLAZE_KEYS`] times, the visible weight (cover times opacity,
-/// `ends`) is laid out as a stain zone; the result is the zone's weight
-/// per key, key-major (empty for no zone, or nothing arriving). Inside a
-/// mask only: its outside is the target's anyway.
-fn stain(
-    glaze: &Transition,
-    (w, h): (usize, usize),
-    arrivals: &[f32],
-    ends: &[([f32; 3], f32)],
-    mask: Option<&Image>,
-    seed: u64,
-) -> Vec<f32> {
+/// each key, the `visible` weight ([`visible_at`]) is laid out as a stain
+/// zone; the result is the zone's weight per key, key-major (empty for no
+/// zone, or nothing arriving). Inside a mask only: its outside is the
+/// target's anyway.
+fn stain(glaze: &Transition, visible: &[Image], mask: Option<&Image>, seed: u64) -> Vec<f32> {
+    let Some(last) = visible.last() else { return Vec::new() };
+    let (w, h) = last.size();
     let Some(field) = glaze.field(w, h, seed) else { return Vec::new() };
-    if !arrivals.iter().any(|&a| a <= 1.0) {
+    if last.data().iter().all(|&v| v <= 0.0) {
         return Vec::new();
     }
     let begun = mask.cloned().unwrap_or_else(|| Image::from_fn(w, h, 1, |_, _, p| p[0] = 1.0));
-    let mut out = Vec::with_capacity(GLAZE_KEYS * w * h);
-    for k in 1..=GLAZE_KEYS {
-        let tau = k as f32 / GLAZE_KEYS as f32;
-        let mut visible = Image::new(w, h, 1);
-        visible.data_mut().par_iter_mut().enumerate().for_each(|(i, v)| {
-            let a = arrivals[i];
-            if a <= 1.0 {
-                let a = a.clamp(GROW_FRONT, 1.0 - GROW_FRONT);
-                *v = ends[i].1 * smoothstep(a - GROW_FRONT, a + GROW_FRONT, tau);
-            }
-        });
-        out.extend(field.weights(&visible, &begun));
-    }
-    out
+    visible.iter().flat_map(|v| field.weights(v, &begun)).collect()
 }
 
-/// Texel `i`'s glaze at progress `tau` (0 at t0, 1 at t_D): linear between
-/// [`stain`]'s keys, 0 at tau <= 0.
-fn glaze_at(glazes: &[f32], i: usize, tau: f32) -> f32 {
-    if tau <= 0.0 {
+/// Texel `i`'s value at progress `tau` (0 at t0, 1 at t_D) in per-key
+/// `values` (key-major, [`KEYS`] keys at tau = k / KEYS): linear between
+/// the keys, 0 at tau <= 0 and for empty `values`.
+fn keyed(values: &[f32], i: usize, tau: f32) -> f32 {
+    if tau <= 0.0 || values.is_empty() {
         return 0.0;
     }
-    let n = glazes.len() / GLAZE_KEYS;
-    let x = (tau * GLAZE_KEYS as f32).min(GLAZE_KEYS as f32);
+    let n = values.len() / KEYS;
+    let x = (tau * KEYS as f32).min(KEYS as f32);
     let k = x.floor() as usize;
     let a = x - k as f32;
-    let at = |k: usize| if k == 0 { 0.0 } else { glazes[(k - 1) * n + i] };
-    if k >= GLAZE_KEYS {
-        return at(GLAZE_KEYS);
+    let at = |k: usize| if k == 0 { 0.0 } else { values[(k - 1) * n + i] };
+    if k >= KEYS {
+        return at(KEYS);
     }
     at(k) + a * (at(k + 1) - at(k))
 }
