@@ -195,6 +195,24 @@ fn rusting_material() -> (Vec<Image>, Material) {
     (frames, material)
 }
 
+/// Orange paint with a fine grain, the target of the grow-mode tests.
+fn painted(w: usize, h: usize) -> Image {
+    Image::from_fn(w, h, 3, |x, y, p| {
+        let grain = 0.12 * (samples::fractal_noise(9, x as f32, y as f32, 12.0, 4) - 0.5);
+        p.copy_from_slice(&[0.85 + grain, 0.5 + grain, 0.25 + grain]);
+    })
+}
+
+/// The object of the masked grow-mode tests (on a 128 x 160 target): a
+/// slab with a margin of background around it.
+fn in_slab(x: usize, y: usize) -> bool {
+    (16..112).contains(&x) && (16..144).contains(&y)
+}
+
+fn slab_mask(w: usize, h: usize) -> Image {
+    Image::from_fn(w, h, 1, |x, y, p| p[0] = if in_slab(x, y) { 1.0 } else { 0.0 })
+}
+
 /// The share of the pixels `only` picks (by index) that are at least 0.1
 /// darker in `img` than in `start`: rusted.
 fn rusted_share(img: &Image, start: &Image, only: &dyn Fn(usize) -> bool) -> f64 {
@@ -300,13 +318,8 @@ fn grown_rust_gathers_where_water_stands() {
     use patina::stbrdf::transfer::{transfer, TransferParams};
     let (_, material) = rusting_material();
     let (w, h) = (128, 160);
-    let target = Image::from_fn(w, h, 3, |x, y, p| {
-        let grain = 0.12 * (samples::fractal_noise(9, x as f32, y as f32, 12.0, 4) - 0.5);
-        p.copy_from_slice(&[0.85 + grain, 0.5 + grain, 0.25 + grain]);
-    });
-    // The object: a slab with a margin of background around it.
-    let inside = |x: usize, y: usize| (16..112).contains(&x) && (16..144).contains(&y);
-    let mask = Image::from_fn(w, h, 1, |x, y, p| p[0] = if inside(x, y) { 1.0 } else { 0.0 });
+    let target = painted(w, h);
+    let (inside, mask) = (in_slab, slab_mask(w, h));
     let weighed = |weight: Option<f32>| {
         let params = TransferParams { guide_weight: weight, ..TransferParams::default() };
         let out = transfer(&material, &target, Some(&mask), &params, 2, None).unwrap().material;
@@ -339,10 +352,7 @@ fn arrived_rust_glazes_the_paint_around_and_below_it() {
     use patina::stbrdf::transfer::{transfer, TransferParams, HALO};
     let (_, material) = rusting_material();
     let (w, h) = (128, 160);
-    let target = Image::from_fn(w, h, 3, |x, y, p| {
-        let grain = 0.12 * (samples::fractal_noise(9, x as f32, y as f32, 12.0, 4) - 0.5);
-        p.copy_from_slice(&[0.85 + grain, 0.5 + grain, 0.25 + grain]);
-    });
+    let target = painted(w, h);
     let run = |halo: f32, runoff: Option<f32>| {
         let mut params = TransferParams { halo, ..TransferParams::default() };
         params.runoff = runoff.unwrap_or(params.runoff);
@@ -443,12 +453,8 @@ fn grown_rust_starts_low_and_climbs() {
     use patina::stbrdf::transfer::{transfer, TransferParams};
     let (_, material) = rusting_material();
     let (w, h) = (128, 160);
-    let target = Image::from_fn(w, h, 3, |x, y, p| {
-        let grain = 0.12 * (samples::fractal_noise(9, x as f32, y as f32, 12.0, 4) - 0.5);
-        p.copy_from_slice(&[0.85 + grain, 0.5 + grain, 0.25 + grain]);
-    });
-    let inside = |x: usize, y: usize| (16..112).contains(&x) && (16..144).contains(&y);
-    let mask = Image::from_fn(w, h, 1, |x, y, p| p[0] = if inside(x, y) { 1.0 } else { 0.0 });
+    let target = painted(w, h);
+    let (inside, mask) = (in_slab, slab_mask(w, h));
     let out = transfer(&material, &target, Some(&mask), &TransferParams::default(), 2, None).unwrap().material;
     let shares = |t: f32| {
         let img = basecolor(&out, t);
