@@ -706,6 +706,7 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
         .collect();
     let lums = on_object(lum.data(), mask);
     let median = if lums.is_empty() { 1.0 } else { quantile(&lums, 0.5).max(1e-3) };
+    let taus: Vec<f32> = times.iter().map(|t| (t - t0) / (end_at - t0)).collect();
     let mut out = Image::new(coefficients.width(), coefficients.height(), channels * mo);
     out.data_mut()
         .par_chunks_mut(channels * mo)
@@ -714,11 +715,17 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
         .zip(lum.data().par_iter())
         .enumerate()
         .for_each_init(
-            || (vec![0f32; samples], vec![0f32; samples]),
-            |(cover, q), (i, (((o, a), want), &l))| {
+            || (vec![0f32; samples], vec![0f32; samples], vec![0f32; samples], vec![0f32; samples]),
+            |(cover, q, glazing, lip), (i, (((o, a), want), &l))| {
                 let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1) * relief[i];
                 cover_of(arrivals[i], cover);
                 let (colour, opacity) = ends[i];
+                // The glaze's weight and the lip's factor over time, shared by
+                // the Diffuse channels.
+                for ((g, f), &tau) in glazing.iter_mut().zip(lip.iter_mut()).zip(&taus) {
+                    *g = keyed(&glazes, i, tau);
+                    *f = 1.0 + LIP * keyed(&lips, i, tau);
+                }
                 for c in 0..channels {
                     let poly = &a[c * m..(c + 1) * m];
                     let diffuse = kd.contains(&c);
@@ -736,13 +743,10 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
                     } else {
                         0.0
                     };
-                    for ((qk, &ck), &t) in q.iter_mut().zip(cover.iter()).zip(&times) {
-                        let tau = (t - t0) / (end_at - t0);
-                        let g = if glazed != 0.0 { keyed(&glazes, i, tau) } else { 0.0 };
-                        let value = base + ck * (arrived - base) + g * glazed;
+                    for (k, (qk, &ck)) in q.iter_mut().zip(cover.iter()).enumerate() {
+                        let value = base + ck * (arrived - base) + glazing[k] * glazed;
                         // The arrived material's lip (Diffuse only).
-                        let lip = if diffuse { 1.0 + LIP * keyed(&lips, i, tau) } else { 1.0 };
-                        *qk = value * lip - base;
+                        *qk = if diffuse { value * lip[k] } else { value } - base;
                     }
                     let dst = &mut o[c * mo..(c + 1) * mo];
                     fitter.fit_into(q, dst);
@@ -784,20 +788,20 @@ const LIP_SIGMA: f32 = 0.8;
 /// edge catches the light and it shadows the surface just below it
 /// (review: "no blistered or flaking paint edges", spots read as flat
 /// decals). The visible weight blurred at [`LIP_SIGMA`], the texel below
-/// minus the texel above, in [-1, 1]. Simplification: the light is taken
+/// minus the texel above, in [-1, 1] (texel-major, as [`keyed`] reads it). Simplification: the light is taken
 /// from above, as most photos are lit; the photo's own light direction
 /// is not estimated.
 fn lips(visible: &[Image]) -> Vec<f32> {
-    let mut out = Vec::with_capacity(visible.iter().map(|v| v.data().len()).sum());
-    for v in visible {
-        let b = gaussian_blur(v, LIP_SIGMA);
-        let (w, h) = b.size();
-        out.extend((0..w * h).map(|i| {
-            let (x, y) = (i % w, i / w);
-            b.at(x, (y + 1).min(h - 1), 0) - b.at(x, y.saturating_sub(1), 0)
-        }));
-    }
-    out
+    texel_major(
+        visible
+            .iter()
+            .map(|v| {
+                let b = gaussian_blur(v, LIP_SIGMA);
+                let (w, h) = b.size();
+                (0..w * h).map(|i| b.at(i % w, (i / w + 1).min(h - 1), 0) - b.at(i % w, (i / w).saturating_sub(1), 0)).collect()
+            })
+            .collect(),
+    )
 }
 
 /// The glaze's tint (a factor in linear light): a film of a quarter of
@@ -818,8 +822,8 @@ const GLAZE_DEPTH: f32 = 0.25;
 /// target as a translucent film (rust bleeding into paint and running
 /// down it; reviewers read the rust without it as flat pasted spots). At
 /// each key, the `visible` weight ([`visible_at`]) is laid out as a stain
-/// zone; the result is the zone's weight per key, key-major (empty for no
-/// zone, or nothing arriving). Inside a mask only: its outside is the
+/// zone; the result is the zone's weight per key, texel-major (empty for
+/// no zone, or nothing arriving). Inside a mask only: its outside is the
 /// target's anyway.
 fn stain(glaze: &Transition, visible: &[Image], mask: Option<&Image>, seed: u64) -> Vec<f32> {
     let Some(last) = visible.last() else { return Vec::new() };
@@ -829,21 +833,28 @@ fn stain(glaze: &Transition, visible: &[Image], mask: Option<&Image>, seed: u64)
         return Vec::new();
     }
     let begun = mask.cloned().unwrap_or_else(|| Image::from_fn(w, h, 1, |_, _, p| p[0] = 1.0));
-    visible.iter().flat_map(|v| field.weights(v, &begun)).collect()
+    texel_major(visible.iter().map(|v| field.weights(v, &begun)).collect())
+}
+
+/// Per-key maps (one per key) interleaved texel by texel, as [`keyed`] reads them.
+fn texel_major(keys: Vec<Vec<f32>>) -> Vec<f32> {
+    let n = keys.first().map_or(0, Vec::len);
+    let mut out = vec![0f32; n * keys.len()];
+    out.par_chunks_mut(keys.len()).enumerate().for_each(|(i, px)| px.iter_mut().zip(&keys).for_each(|(o, k)| *o = k[i]));
+    out
 }
 
 /// Texel `i`'s value at progress `tau` (0 at t0, 1 at t_D) in per-key
-/// `values` (key-major, [`KEYS`] keys at tau = k / KEYS): linear between
-/// the keys, 0 at tau <= 0 and for empty `values`.
+/// `values` (texel-major: [`KEYS`] values per texel, at tau = k / KEYS):
+/// linear between the keys, 0 at tau <= 0 and for empty `values`.
 fn keyed(values: &[f32], i: usize, tau: f32) -> f32 {
     if tau <= 0.0 || values.is_empty() {
         return 0.0;
     }
-    let n = values.len() / KEYS;
     let x = (tau * KEYS as f32).min(KEYS as f32);
     let k = x.floor() as usize;
     let a = x - k as f32;
-    let at = |k: usize| if k == 0 { 0.0 } else { values[(k - 1) * n + i] };
+    let at = |k: usize| if k == 0 { 0.0 } else { values[i * KEYS + k - 1] };
     if k >= KEYS {
         return at(KEYS);
     }
