@@ -482,7 +482,8 @@ const EXPOSURE_LEAD: f32 = 1.0;
 /// - which texels take on the material: the source's share of them (over
 ///   the object, and separately off it), those of the highest strength
 ///   (own |D| / top, at most 1) plus [`EXPOSURE_LEAD`] times their
-///   exposure. Guided synthesis under-copies rare spots (on the rusting
+///   exposure, plus (with a mask) [`WET_CHOICE`] times their wetness over
+///   0.5. Guided synthesis under-copies rare spots (on the rusting
 ///   steel capture onto a painted test texture, 8% of the result against
 ///   28% of the source had rusted at t = 1), so the result's own strongest
 ///   changes are completed to the source's share, crevices first;
