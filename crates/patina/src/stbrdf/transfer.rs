@@ -596,9 +596,10 @@ const GROW_DEPTH: f32 = 6.0;
 /// mean (flat, camouflage-like blotches, review).
 ///
 /// A rim texel's own colour is part bare surface (rusting steel's grey):
-/// it keeps its own colour in the share of it that is spot, and takes the
-/// mean end state's hue at its own luminance in the rest (grey feathered
-/// edges, review).
+/// it keeps its own colour in the square of the share of it that is spot,
+/// and takes the mean end state's hue at its own luminance, no paler than
+/// the mean's, in the rest (grey feathered edges, then pale yellow-grey
+/// fringes, reviews).
 ///
 /// The darkest of the material's end states are its polynomials' ends
 /// (where a fit is least sure); under the target's shade they went
@@ -612,8 +613,9 @@ fn end_state(timing: &Timing, pace: &Pace, i: usize, end: [f32; 3], e: f32) -> (
         return (end, 0.0);
     }
     let mean = pixel_luminance(&pace.colour).max(1e-3);
-    let tint = pixel_luminance(&end) / mean;
-    let rim: [f32; 3] = std::array::from_fn(|c| own * end[c] + (1.0 - own) * tint * pace.colour[c]);
+    let tint = (pixel_luminance(&end) / mean).min(1.0);
+    let grey = own * own;
+    let rim: [f32; 3] = std::array::from_fn(|c| grey * end[c] + (1.0 - grey) * tint * pace.colour[c]);
     let mut colour: [f32; 3] = std::array::from_fn(|c| (own * rim[c] + (opacity - own) * pace.colour[c]) / opacity);
     let l = pixel_luminance(&colour);
     if l < DARKEST * mean {
@@ -686,8 +688,9 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
         .par_chunks(n)
         .map(|a| std::array::from_fn(|k| evaluate(&a[(kd.start + k) * m..(kd.start + k + 1) * m], end_at)))
         .collect();
-    let ends: Vec<([f32; 3], f32)> =
+    let mut ends: Vec<([f32; 3], f32)> =
         ends.par_iter().enumerate().map(|(i, &end)| end_state(&timing, pace, i, end, exposed.data()[i])).collect();
+    antialias(target.size(), &mut arrivals, &mut ends, pace);
     let visible: Vec<Image> = (1..=KEYS).map(|k| visible_at(target.size(), &arrivals, &ends, k as f32 / KEYS as f32)).collect();
     let glazes = stain(glaze, &visible, mask, seed);
     let lips = lips(&visible);
@@ -769,6 +772,33 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
             },
         );
     Ok((out_degree, out))
+}
+
+/// Width (sigma, px) of the fringe [`antialias`] gives what arrives.
+const FRINGE_SIGMA: f32 = 0.6;
+
+/// Anti-aliases the outlines of what arrives: a texel that does not take
+/// the material on but borders texels that do takes it on in part, with
+/// the opacity of their opacity blurred at [`FRINGE_SIGMA`], at their mean
+/// arrival, in the material's mean end state ([`Pace::colour`], not the
+/// texel's own bare colour: a fringe of that read as grey haze, review).
+/// Each texel's cover is all or nothing, so without it outlines were
+/// stair-stepped at the target's pixels (review: "blocky, jagged spot
+/// edges").
+fn antialias((w, h): (usize, usize), arrivals: &mut [f32], ends: &mut [([f32; 3], f32)], pace: &Pace) {
+    let opacity = Image::from_fn(w, h, 1, |x, y, p| {
+        let i = y * w + x;
+        p[0] = if arrivals[i] <= 1.0 { ends[i].1 } else { 0.0 };
+    });
+    let timed = Image::from_fn(w, h, 1, |x, y, p| p[0] = opacity.at(x, y, 0) * arrivals[y * w + x].min(1.0));
+    let (opacity, timed) = (gaussian_blur(&opacity, FRINGE_SIGMA), gaussian_blur(&timed, FRINGE_SIGMA));
+    for (i, (a, end)) in arrivals.iter_mut().zip(ends.iter_mut()).enumerate() {
+        let o = opacity.data()[i];
+        if *a > 1.0 && o > 0.02 {
+            *a = (timed.data()[i] / o).min(1.0);
+            *end = (pace.colour, o);
+        }
+    }
 }
 
 /// Strength of [`Mode::Grow`]'s glaze at the rim of a large arrived patch.
@@ -1008,8 +1038,31 @@ mod tests {
         let (rim, opacity) = end_state(&timing, &pace, 1, grey, 0.0);
         assert!((opacity - 0.4).abs() < 1e-5, "a rim is part rust: {opacity}");
         assert!(rim[0] > 1.3 * rim[2], "its colour leans to the rust's hue: {rim:?}");
+        // A pale rim read as a yellow-grey fringe around the spots (review):
+        // 1.28x the rust's luminance here, 2.7x with the rim's own
+        // luminance and a linear share of its grey.
+        assert!(light(rim) <= 1.5 * light(pace.colour), "{rim:?} against {:?}", pace.colour);
         let brown = [0.45, 0.25, 0.12];
         assert_eq!(end_state(&timing, &pace, 2, brown, 0.0), (brown, 1.0));
+    }
+
+    /// A square that arrives gets a one-texel fringe that arrives with it,
+    /// part opaque, in the material's mean end state; texels further out
+    /// stay bare.
+    #[test]
+    fn arriving_outlines_are_antialiased() {
+        let (w, h) = (24, 24);
+        let inside = |x: usize, y: usize| (8..16).contains(&x) && (8..16).contains(&y);
+        let mut arrivals: Vec<f32> = (0..w * h).map(|i| if inside(i % w, i / w) { 0.5 } else { 2.0 }).collect();
+        let mut ends = vec![([0.5, 0.4, 0.3], 1.0); w * h];
+        let pace = Pace { arrivals: vec![0.5], share: 0.1, colour: [0.3, 0.16, 0.07], strength: 1.0, top: 1.0 };
+        antialias((w, h), &mut arrivals, &mut ends, &pace);
+        let at = |x: usize, y: usize| y * w + x;
+        for (x, y) in [(7, 12), (16, 12), (12, 7), (12, 16)] {
+            let (a, (colour, o)) = (arrivals[at(x, y)], ends[at(x, y)]);
+            assert!((a - 0.5).abs() < 1e-5 && (0.1..0.6).contains(&o) && colour == pace.colour, "edge ({x}, {y}): {a} {o} {colour:?}");
+        }
+        assert!(arrivals[at(5, 12)] > 1.0 && arrivals[at(12, 12)] == 0.5 && ends[at(12, 12)] == ([0.5, 0.4, 0.3], 1.0));
     }
 
     #[test]
