@@ -214,7 +214,7 @@ pub fn transfer(
     }
     // The source's timing, which the grow guides and the pace both read.
     let source_timing = Timing::of(material, kd.clone(), t0);
-    let wet = mask.filter(|_| params.mode == Mode::Grow).map(wetness);
+    let wet = mask.filter(|_| params.mode == Mode::Grow).map(|m| wetness(m, RIM_SHARE));
     let guides = match params.mode {
         _ if guide_weight <= 0.0 => None,
         Mode::Grow => wet.as_ref().map(|wet| density_guides(material.size(), &source_timing, wet)),
@@ -247,7 +247,10 @@ pub fn transfer(
                 offset: [0.0; 2],
                 drip: params.runoff,
             };
-            grow(&synthesized, target, kd, t0, &Place { mask, wet: wet.as_ref(), pace: &pace, glaze: &glaze }, seed)?
+            // The choice and the timing lean to the object's bottom only:
+            // with its rims as well, the rust outlined the object (review).
+            let low = mask.map(|m| wetness(m, 0.0));
+            grow(&synthesized, target, kd, t0, &Place { mask, wet: low.as_ref(), pace: &pace, glaze: &glaze }, seed)?
         }
         _ => (material.degree, scaled(&synthesized, target, kd, t0, mode)),
     };
@@ -290,13 +293,13 @@ fn density_guides((w, h): (usize, usize), timing: &Timing, wet: &Image) -> (Imag
 }
 
 /// Where water stands on the object `mask`, in [0, 1] (1 on the wettest
-/// texel): its rims and its bottom ([`Mask::wet_places`]) blurred at
-/// [`DENSITY_SIGMA`]. The rims count [`RIM_SHARE`] of the bottom's
-/// weight: at full weight the rust drew the object's outline as a stroke
-/// (review: 79% of the texels within 8 px of it rusted against 29% inside).
-fn wetness(mask: &Image) -> Image {
+/// texel): its rims and its bottom ([`Mask::wet_places_weighted`]) blurred at
+/// [`DENSITY_SIGMA`], the rims weighing `rim` (the guide's [`RIM_SHARE`]:
+/// at full weight the rust drew the object's outline as a stroke, review:
+/// 79% of the texels within 8 px of it rusted against 29% inside).
+fn wetness(mask: &Image, rim: f32) -> Image {
     let (w, h) = mask.size();
-    let wet = Image::from_data(w, h, 1, Mask::from_image(mask).wet_places_weighted(RIM_SHARE)).expect("one value per pixel");
+    let wet = Image::from_data(w, h, 1, Mask::from_image(mask).wet_places_weighted(rim)).expect("one value per pixel");
     let mut wet = gaussian_blur(&wet, DENSITY_SIGMA);
     let top = wet.data().iter().copied().fold(0.0f32, f32::max).max(1e-3);
     wet.data_mut().iter_mut().for_each(|v| *v /= top);
@@ -519,7 +522,8 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, wet: Option<&I
     for on in [true, false] {
         let group: Vec<usize> = (0..n).filter(|&i| mask.is_none_or(|m| (m.data()[i] > 0.5) == on)).collect();
         let wet_at = |i: usize| wet.map_or(0.0, |m| WET_CHOICE * (m.data()[i] - 0.5));
-        let mut chosen: Vec<(f32, usize)> = group.iter().map(|&i| (-(strength(i) + EXPOSURE_LEAD * e[i] + wet_at(i)), i)).collect();
+        let mut chosen: Vec<(f32, usize)> =
+            group.iter().map(|&i| (-(strength(i) + EXPOSURE_LEAD * e[i] + NEAR_CHOICE * near[i] + wet_at(i)), i)).collect();
         chosen.sort_by(by);
         chosen.truncate((pace.share * group.len() as f32).round() as usize);
         let mut own: Vec<(f32, usize)> =
@@ -568,6 +572,12 @@ const WET_LEAD: f32 = 1.0;
 /// 0.17 / 0.42 / 0.84 (0.6 gave 0.22 / 0.45 / 0.80); the share is the
 /// source's either way.
 const WET_CHOICE: f32 = 1.2;
+
+/// How much nearness to exposed places (chips, seams) weighs in the
+/// choice, against a texel's own strength: the rust grows out of the
+/// chips the photo already has (review: "the rust ignores the paint chips
+/// already in the photo ... new spots appear at random").
+const NEAR_CHOICE: f32 = 0.5;
 
 /// Reach (sigma, px) of an exposed place's head start in time ([`paced`]).
 const NEAR_SIGMA: f32 = 6.0;
