@@ -168,6 +168,11 @@ pub struct TransferArgs {
     /// grow: how far (px) the glaze runs down the image below what has arrived, in streaks (rust's runoff); 0 for none.
     #[arg(long, default_value_t = transfer::RUNOFF, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100000.0))]
     pub runoff: f32,
+    /// grow: how the covered share grows over time. source: at the source material's own pace (the share covered at
+    /// each time is the source's). even: the same texels in the same order, their arrivals spread evenly over time,
+    /// so the covered share grows linearly.
+    #[arg(long, value_enum, default_value_t = TempoArg::Source)]
+    pub tempo: TempoArg,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -213,6 +218,13 @@ pub enum ModeArg {
     Ratio,
     Offset,
     Auto,
+}
+
+/// `--tempo` of transfer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum TempoArg {
+    Source,
+    Even,
 }
 
 /// `--light`.
@@ -449,6 +461,10 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
         mode,
         halo: args.halo,
         runoff: args.runoff,
+        tempo: match args.tempo {
+            TempoArg::Source => transfer::Tempo::Source,
+            TempoArg::Even => transfer::Tempo::Even,
+        },
         ..Default::default()
     };
     let moved = with_bar("transfer", |report| transfer::transfer(&material, &target, mask.as_ref(), &params, args.seed, Some(report)))?;

@@ -485,3 +485,27 @@ fn grown_rust_starts_low_and_climbs() {
     eprintln!("t = {t}: the top third holds {early:.3} of the top and bottom thirds' rust; at t = 1 {late:.3}");
     assert!(early < 0.5 * late, "rust starts low: the top holds {early:.3} of the rust at t = {t} against {late:.3} at t = 1");
 }
+
+/// `Tempo::Even` spreads the same arrivals evenly over time: the rusted
+/// share grows about linearly to its final value (within 0.03 of t as a
+/// share of the final rust, measured), where the source's own pace is
+/// front-loaded on this test material (0.53 of the final rust by t = 0.4).
+#[test]
+fn an_even_tempo_grows_the_rust_linearly() {
+    use patina::stbrdf::transfer::{transfer, Tempo, TransferParams};
+    let (_, material) = rusting_material();
+    let target = painted(96, 96);
+    let shares = |tempo: Tempo| {
+        let params = TransferParams { tempo, ..TransferParams::default() };
+        let out = transfer(&material, &target, None, &params, 2, None).unwrap().material;
+        let all = |_: usize| true;
+        let s: Vec<f64> = (0..=10).map(|k| rusted_share(&basecolor(&out, k as f32 / 10.0), &target, &all)).collect();
+        let last = s[10].max(1e-6);
+        s.iter().map(|v| v / last).collect::<Vec<f64>>()
+    };
+    let (even, source) = (shares(Tempo::Even), shares(Tempo::Source));
+    eprintln!("share of the final rust over t: even {even:.2?}; source {source:.2?}");
+    let off = |s: &[f64]| (2..=9).map(|k| (s[k] - k as f64 / 10.0).abs()).fold(0.0, f64::max);
+    assert!(off(&even) < 0.06, "even: {even:.2?}");
+    assert!(off(&source) > 0.1, "the source's pace is not linear here: {source:.2?}");
+}

@@ -140,7 +140,24 @@ pub struct TransferParams {
     /// [`Mode::Grow`]: how far (px) the glaze runs down the image below
     /// what has arrived, in streaks; 0 for none.
     pub runoff: f32,
+    /// [`Mode::Grow`]: how the covered share grows over time.
+    pub tempo: Tempo,
     pub optimize: OptimizeParams,
+}
+
+/// How [`Mode::Grow`]'s covered share grows over time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Tempo {
+    /// At the source's own pace: the share covered at each time is the
+    /// source's (rusting steel's rust bursts after t = 0.75).
+    #[default]
+    Source,
+    /// Evenly: the same texels arrive in the same order, at times spread
+    /// evenly over [t0, t_D], so the covered share grows linearly to the
+    /// source's final share (an artist's choice when the capture's pace
+    /// is not the one wanted; every reviewer asked for an earlier rise).
+    Even,
 }
 
 /// [`TransferParams::halo`]'s default, about a quarter of a rust spot of
@@ -168,7 +185,15 @@ impl TransferParams {
 
 impl Default for TransferParams {
     fn default() -> Self {
-        TransferParams { t0: 0.0, guide_weight: None, mode: Mode::Grow, halo: HALO, runoff: RUNOFF, optimize: OptimizeParams::default() }
+        TransferParams {
+            t0: 0.0,
+            guide_weight: None,
+            mode: Mode::Grow,
+            halo: HALO,
+            runoff: RUNOFF,
+            tempo: Tempo::Source,
+            optimize: OptimizeParams::default(),
+        }
     }
 }
 
@@ -239,7 +264,11 @@ pub fn transfer(
     };
     let (degree, coefficients) = match mode {
         Mode::Grow => {
-            let pace = Pace::of(material, kd.clone(), &source_timing);
+            let mut pace = Pace::of(material, kd.clone(), &source_timing);
+            if params.tempo == Tempo::Even {
+                let n = pace.arrivals.len();
+                pace.arrivals = (0..n).map(|k| (k as f32 + 0.5) / n as f32).collect();
+            }
             let glaze = Transition {
                 width: params.halo,
                 tint: glaze_tint(&pace, material.encoding),
