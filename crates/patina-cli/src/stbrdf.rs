@@ -148,7 +148,7 @@ pub struct TransferArgs {
     #[arg(long, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub guide_weight: Option<f32>,
     /// How the material's change lands on the target. grow: the material covers the target texel by texel in its own
-    /// spatial pattern, at the source's pace (the share covered over time is the source's), spots growing from their
+    /// spatial pattern, up to the source's share (see --tempo), spots growing from their
     /// middle out and starting in the target's crevices and chips. ratio: the change scaled by target / material
     /// at t0 (eq. 16; wetting, dulling). offset: the change added unscaled. auto: ratio for changes small against the
     /// material at t0, offset for large ones.
@@ -168,10 +168,10 @@ pub struct TransferArgs {
     /// grow: how far (px) the glaze runs down the image below what has arrived, in streaks (rust's runoff); 0 for none.
     #[arg(long, default_value_t = transfer::RUNOFF, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100000.0))]
     pub runoff: f32,
-    /// grow: how the covered share grows over time. source: at the source material's own pace (the share covered at
-    /// each time is the source's). even: the same texels in the same order, their arrivals spread evenly over time,
-    /// so the covered share grows linearly.
-    #[arg(long, value_enum, default_value_t = TempoArg::Source)]
+    /// grow: how the covered share grows over time. even: the texels arrive in the source's order, their arrivals
+    /// spread evenly over time, so the covered share grows linearly to the source's final share. source: at the source
+    /// material's own pace (the share covered at each time is the source's; a time-lapse's pace is often its camera's).
+    #[arg(long, value_enum, default_value_t = TempoArg::Even)]
     pub tempo: TempoArg,
     /// Random seed.
     #[arg(long, default_value_t = 0)]

@@ -241,7 +241,8 @@ fn grown_rust_keeps_the_sources_pace() {
         let shade = if near(y * w + x, 2.0) { 0.7 } else { 1.0 };
         p.copy_from_slice(&[(0.85 + grain) * shade, (0.5 + grain) * shade, (0.25 + grain) * shade]);
     });
-    let out = transfer(&material, &target, None, &TransferParams::default(), 2, None).unwrap().material;
+    let params = TransferParams { tempo: patina::stbrdf::transfer::Tempo::Source, ..TransferParams::default() };
+    let out = transfer(&material, &target, None, &params, 2, None).unwrap().material;
     let all = |_: usize| true;
     let shares: Vec<f64> = (0..=10).map(|k| rusted_share(&basecolor(&out, k as f32 / 10.0), &target, &all)).collect();
     let source: Vec<f64> = (0..=10).map(|k| rusted_share(&frames[2 * k], &frames[0], &all)).collect();
