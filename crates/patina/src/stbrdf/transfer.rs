@@ -195,7 +195,7 @@ impl Default for TransferParams {
             mode: Mode::Grow,
             halo: HALO,
             runoff: RUNOFF,
-            tempo: Tempo::Source,
+            tempo: Tempo::default(),
             optimize: OptimizeParams::default(),
         }
     }
