@@ -243,10 +243,9 @@ pub fn transfer(
     }
     // The source's timing, which the grow guides and the pace both read.
     let source_timing = Timing::of(material, kd.clone(), t0);
-    let wet = mask.filter(|_| params.mode == Mode::Grow).map(|m| wetness(m, RIM_SHARE));
     let guides = match params.mode {
         _ if guide_weight <= 0.0 => None,
-        Mode::Grow => wet.as_ref().map(|wet| density_guides(material.size(), &source_timing, wet)),
+        Mode::Grow => mask.map(|m| density_guides(material.size(), &source_timing, &wetness(m, RIM_SHARE))),
         _ => {
             let source_guide = equalize(&luminance(&material.evaluate(t0).select_channels(kd.clone())));
             let target_guide = equalize(&luminance(&target.select_channels(0..3)));
@@ -726,30 +725,21 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
     dither(&mut arrivals, target.width(), seed);
     let coefficients = &material.coefficients;
     let n = coefficients.channels();
-    let ends: Vec<[f32; 3]> = coefficients
+    let mut ends: Vec<([f32; 3], f32)> = coefficients
         .data()
         .par_chunks(n)
-        .map(|a| std::array::from_fn(|k| evaluate(&a[(kd.start + k) * m..(kd.start + k + 1) * m], end_at)))
+        .enumerate()
+        .map(|(i, a)| {
+            let end = std::array::from_fn(|k| evaluate(&a[(kd.start + k) * m..(kd.start + k + 1) * m], end_at));
+            end_state(&timing, pace, i, end, exposed.data()[i])
+        })
         .collect();
-    let mut ends: Vec<([f32; 3], f32)> =
-        ends.par_iter().enumerate().map(|(i, &end)| end_state(&timing, pace, i, end, exposed.data()[i])).collect();
     antialias(target.size(), &mut arrivals, &mut ends, pace);
     let visible: Vec<Image> = (1..=KEYS).map(|k| visible_at(target.size(), &arrivals, &ends, k as f32 / KEYS as f32)).collect();
     let glazes = stain(glaze, &visible, mask, seed);
     let lips = lips(&visible);
     let linear = material.encoding == Encoding::Srgb;
-    // The cover: 0 up to t0, then a smoothstep of half-width GROW_FRONT
-    // around the arrival, which is never before GROW_FRONT (nothing has
-    // arrived at t0 itself) and, for texels that arrive, never after
-    // 1 - GROW_FRONT (what arrives is all there at t_D, not a see-through
-    // wash). It only grows away from t0: what has arrived stays.
-    let cover_of = |arrival: f32, cover: &mut [f32]| {
-        let arrival = if arrival <= 1.0 { arrival.clamp(GROW_FRONT, 1.0 - GROW_FRONT) } else { arrival };
-        for (c, &t) in cover.iter_mut().zip(&times) {
-            let tau = (t - t0) / (end_at - t0);
-            *c = if tau <= 0.0 { 0.0 } else { smoothstep(arrival - GROW_FRONT, arrival + GROW_FRONT, tau) };
-        }
-    };
+    let taus: Vec<f32> = times.iter().map(|t| (t - t0) / (end_at - t0)).collect();
     // The target's shading, relative to its median luminance (over the
     // object), at the scale of its form: the paint's grain and gloss do
     // not show through the material.
@@ -766,7 +756,6 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
         .collect();
     let lums = on_object(lum.data(), mask);
     let median = if lums.is_empty() { 1.0 } else { quantile(&lums, 0.5).max(1e-3) };
-    let taus: Vec<f32> = times.iter().map(|t| (t - t0) / (end_at - t0)).collect();
     let mut out = Image::new(coefficients.width(), coefficients.height(), channels * mo);
     out.data_mut()
         .par_chunks_mut(channels * mo)
@@ -778,7 +767,7 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
             || (vec![0f32; samples], vec![0f32; samples], vec![0f32; samples], vec![0f32; samples]),
             |(cover, q, glazing, lip), (i, (((o, a), want), &l))| {
                 let shading = (l / median).clamp(SHADING_RANGE.0, SHADING_RANGE.1) * relief[i];
-                cover_of(arrivals[i], cover);
+                cover.iter_mut().zip(&taus).for_each(|(c, &tau)| *c = cover_at(arrivals[i], tau));
                 let (colour, opacity) = ends[i];
                 // The glaze's weight and the lip's factor over time, shared by
                 // the Diffuse channels.
@@ -855,13 +844,25 @@ const KEYS: usize = 6;
 fn visible_at((w, h): (usize, usize), arrivals: &[f32], ends: &[([f32; 3], f32)], tau: f32) -> Image {
     let mut visible = Image::new(w, h, 1);
     visible.data_mut().par_iter_mut().enumerate().for_each(|(i, v)| {
-        let a = arrivals[i];
-        if a <= 1.0 {
-            let a = a.clamp(GROW_FRONT, 1.0 - GROW_FRONT);
-            *v = ends[i].1 * smoothstep(a - GROW_FRONT, a + GROW_FRONT, tau);
+        if arrivals[i] <= 1.0 {
+            *v = ends[i].1 * cover_at(arrivals[i], tau);
         }
     });
     visible
+}
+
+/// The cover of a texel arriving at `arrival` at progress `tau` (0 at t0,
+/// 1 at t_D): 0 up to t0, then a smoothstep of half-width [`GROW_FRONT`]
+/// around the arrival, which is never before GROW_FRONT (nothing has
+/// arrived at t0 itself) and, for texels that arrive (<= 1), never after
+/// 1 - GROW_FRONT (what arrives is all there at t_D, not a see-through
+/// wash). It only grows away from t0: what has arrived stays.
+fn cover_at(arrival: f32, tau: f32) -> f32 {
+    if tau <= 0.0 {
+        return 0.0;
+    }
+    let arrival = if arrival <= 1.0 { arrival.clamp(GROW_FRONT, 1.0 - GROW_FRONT) } else { arrival };
+    smoothstep(arrival - GROW_FRONT, arrival + GROW_FRONT, tau)
 }
 
 /// Strength of the arrived material's lip: the share by which the top edge
@@ -870,7 +871,7 @@ const LIP: f32 = 0.4;
 /// Softness (sigma, px) of the lip.
 const LIP_SIGMA: f32 = 0.8;
 
-/// Per key (key-major), the lip of what has arrived: rust scale stands
+/// Per key, the lip of what has arrived: rust scale stands
 /// proud of the paint it lifts, so under light from above a patch's upper
 /// edge catches the light and it shadows the surface just below it
 /// (review: "no blistered or flaking paint edges", spots read as flat
