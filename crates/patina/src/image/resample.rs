@@ -23,7 +23,8 @@ impl Filter {
             Filter::Cubic => 2.0,
         }
     }
-    fn weight(self, x: f32) -> f32 {
+    /// The filter's kernel at distance `x` (in samples).
+    pub fn weight(self, x: f32) -> f32 {
         let x = x.abs();
         match self {
             Filter::Nearest => (x < 0.5) as u8 as f32,

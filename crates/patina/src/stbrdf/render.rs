@@ -30,7 +30,7 @@
 use super::material::{Encoding, Material};
 use super::poly::evaluate;
 use crate::image::color::{linear_to_srgb, srgb_to_linear};
-use crate::image::resample::pyr_down;
+use crate::image::resample::{pyr_down, Filter};
 use crate::image::Image;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -268,10 +268,7 @@ fn catmull_rom(img: &Image, fx: f32, fy: f32, out: &mut [f32]) {
     let (w, h) = img.size();
     let (x, y) = ((fx - 0.5).clamp(0.0, (w - 1) as f32), (fy - 0.5).clamp(0.0, (h - 1) as f32));
     let (x0, y0) = (x.floor(), y.floor());
-    let weights = |t: f32| {
-        let (t2, t3) = (t * t, t * t * t);
-        [-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0, -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2]
-    };
+    let weights = |t: f32| [1.0 + t, t, 1.0 - t, 2.0 - t].map(|d| Filter::Cubic.weight(d));
     let (wx, wy) = (weights(x - x0), weights(y - y0));
     let at = |base: f32, k: usize, n: usize| (base as isize + k as isize - 1).clamp(0, n as isize - 1) as usize;
     out.iter_mut().for_each(|o| *o = 0.0);
