@@ -464,7 +464,8 @@ fn arrived_rust_glazes_the_paint_around_and_below_it() {
 /// from there: when a quarter of the final rust has arrived, the top third
 /// of the object holds under half the part of it (against the bottom
 /// third) that it holds at t = 1 (the wet places lead the timing, not only
-/// the choice; without that lead it holds 1.2x that part).
+/// the choice; without that lead it holds 0.78x that part at the default
+/// even tempo, 1.2x at the source's).
 #[test]
 fn grown_rust_starts_low_and_climbs() {
     use patina::stbrdf::transfer::{transfer, TransferParams};
