@@ -37,12 +37,14 @@ fn weathered_area(frame: &Image, intact: &Image) -> f32 {
 /// busy base (gravel) needs that model's intact seeds to be the clearly
 /// young pixels only: with every pixel below the cut as an intact seed,
 /// the peels' plain interiors (rated middling) were seeds of both classes
-/// and stayed intact (AUC 0.81, residue 0.43; now 0.97 and 0.20).
+/// and stayed intact (AUC 0.81, residue 0.43; now 0.97 and 0.20), and
+/// the link of the rim's faint pixels to the peel
+/// ([`patina::weather::intact::allowed_sources`]; residue 0.12).
 const GROUND_TRUTH: [(&str, Weathering, f32, f32, f32); 10] = [
     ("stucco", Weathering::CrackNetwork, 0.0, 0.89, 0.3),
     ("stucco", Weathering::Peel, 0.32, 0.95, 0.4),
     ("stucco", Weathering::Rust, 0.1, 0.97, 0.17),
-    ("gravel", Weathering::Peel, 0.32, 0.93, 0.25),
+    ("gravel", Weathering::Peel, 0.32, 0.93, 0.17),
     ("tiles", Weathering::CrackNetwork, 0.0, 0.89, 0.05),
     ("tiles", Weathering::Peel, 0.32, 0.97, 0.05),
     ("tiles", Weathering::Rust, 0.1, 0.98, 0.05),
@@ -394,9 +396,10 @@ fn boards_are_stripes_and_their_grooves_do_not_age() {
 #[test]
 fn the_weathered_cut_adapts_to_the_damage_and_respects_its_cap() {
     // The cut follows the damage: a 5% crack network, then 37% peeling.
-    // (A clean texture is still judged about 30% weathered: the age map's
-    // rarest patches are always rare relative to the rest. Not this
-    // method's input, but a known weakness.)
+    // (A clean texture is still judged 30-50% weathered: the age map's
+    // rarest patches are always rare relative to the rest, and the faint
+    // pixels around them are linked to them. Not this method's input, but
+    // a known weakness.)
     let clean = samples::stucco(192, 192, 3);
     let judged = |img: &Image| {
         let a = age_map(img, &AgeParams::default()).unwrap();
