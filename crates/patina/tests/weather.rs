@@ -196,13 +196,18 @@ fn sequences_grow_weathering_monotonically_in_both_directions() {
     assert!(areas[3] > areas[1], "de-weathering frames differ: {areas:?}");
     assert!(areas[7] > areas[5] && areas[5] > areas[4], "future frames grow strictly: {areas:?}");
     assert!(areas[7] >= 1.5 * areas[4], "t = 2 has {:.3} weathered vs {:.3} at t = 1", areas[7], areas[4]);
-    // Past frames: per pixel, the distance to intact never falls.
-    for w in r.frames[..5].windows(2) {
-        let a = colour_distance(&w[0].image, &r.intact).unwrap();
-        let b = colour_distance(&w[1].image, &r.intact).unwrap();
-        let fell = a.iter().zip(&b).filter(|(x, y)| **y < **x - 0.02).count();
-        assert!(fell == 0, "{fell} pixels moved back towards intact between t = {} and t = {}", w[0].t, w[1].t);
-    }
+    // Past frames: no flicker. A pixel changes when the receding front
+    // uncovers it (drawn as rim when it is near the front), maybe once more
+    // while the rim band still covers it, and once when the rim moves on
+    // and it becomes the input; never in every step.
+    let past_steps: Vec<Vec<f32>> = r.frames[..5].windows(2).map(|w| colour_distance(&w[0].image, &w[1].image).unwrap()).collect();
+    let past_times = |i: usize| past_steps.iter().filter(|s| s[i] > 0.05).count();
+    let n = past_steps[0].len();
+    let uncovered = (0..n).filter(|&i| past_times(i) > 0).count();
+    let (thrice, always) = ((0..n).filter(|&i| past_times(i) == 3).count(), (0..n).filter(|&i| past_times(i) > 3).count());
+    eprintln!("past: uncovered {uncovered}, changed three times {thrice}, in every step {always}");
+    assert!(uncovered > 0 && always == 0, "{always} of {uncovered} past pixels changed in every step");
+    assert!((thrice as f32) < 0.1 * uncovered as f32, "{thrice} of {uncovered} past pixels changed three times");
     // Future frames: no flicker. A pixel changes when the front crosses it
     // and, once, when the front's rim moves on past it; never in every
     // step (new damage may be closer to the intact colour than what it
@@ -485,6 +490,32 @@ fn growing_damage_carries_its_rim_with_the_front_instead_of_leaving_rings() {
     eprintln!("buried {buried} of {rim_in} rim pixels; edge rimmed {rimmed:.2}");
     assert!((buried as f32) < 0.3 * rim_in as f32, "{buried} dark pixels stay deep inside the grown damage ({rim_in} rim pixels at t = 1)");
     assert!(rimmed >= 0.25, "only {:.0}% of the grown damage's edge is rimmed", 100.0 * rimmed);
+}
+
+/// Receding damage keeps its rim: at t = 0.5 the blooms are smaller, and
+/// their edge is in part dark rim as the input's is, not only a cut
+/// through their orange interiors.
+#[test]
+fn receding_damage_keeps_its_rim() {
+    let (img, mask) = rimmed_blooms(&samples::stucco(SIZE, SIZE, 5), [0.85, 0.45, 0.15]);
+    let age = mask.to_image();
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (3, 0);
+    let r = weather::weather(&img, &p, Overrides { age: Some(&age), ..Default::default() }, 7, &|_| {}).unwrap();
+    let half = &r.frames[2];
+    assert_eq!(half.t, 0.5);
+    let frame = &half.image;
+    let dark = |x: usize, y: usize| frame.pixel(x, y).iter().take(3).all(|&v| v < 0.3);
+    let damage = patina::image::Mask::from_fn(SIZE, SIZE, |x, y| orange(frame.pixel(x, y)) || dark(x, y)).dilate(1).erode(1);
+    let share = damage.count() as f32 / mask.count() as f32;
+    assert!((0.2..0.8).contains(&share), "at t = 0.5 the damage is {share:.2} of the input's");
+    let inside = damage.distance_inside();
+    let edge: Vec<usize> = (0..SIZE * SIZE).filter(|&i| inside[i] > 0.0 && inside[i] <= 2.0).collect();
+    let rimmed = edge.iter().filter(|&&i| dark(i % SIZE, i / SIZE)).count() as f32 / edge.len().max(1) as f32;
+    eprintln!("receded to {share:.2}; edge rimmed {rimmed:.2}");
+    // Measured 0.21 (the rim is redrawn in pieces where the thin band's
+    // fill finds it); a cut through the interiors, as until stop 50, 0.02.
+    assert!(rimmed >= 0.12, "only {:.0}% of the receded damage's edge is rimmed", 100.0 * rimmed);
 }
 
 #[test]

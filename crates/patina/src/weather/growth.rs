@@ -85,9 +85,9 @@ pub const ANISOTROPY: f32 = 4.0;
 /// Blur (px) of the arrival times.
 const FRONT_SMOOTHING: f32 = 1.5;
 /// Blur (px) of the grown damage's outline before it is thresholded.
-const OUTLINE_SMOOTHING: f32 = 2.0;
+pub(crate) const OUTLINE_SMOOTHING: f32 = 2.0;
 /// Scale (px) over which the structure's orientation is averaged.
-const STRUCTURE_SIGMA: f32 = 6.0;
+pub(crate) const STRUCTURE_SIGMA: f32 = 6.0;
 /// Weight of the edge guide channel against the appearance features.
 const EDGE_GUIDE: f32 = 3.0;
 /// Change of a pixel's clamped edge distance, in bands, that re-draws it.
@@ -98,7 +98,8 @@ const CONTEXT_SIGMA: f32 = 2.0;
 const CONTEXT_GUIDE: f32 = 1.0;
 
 /// Arrival time of the weathering at every pixel (0 on weathered pixels).
-pub fn arrival_times(age: &Image, weathered: &Mask, structure: &Orientation, seed: u64) -> Vec<f32> {
+/// With `nucleate`, a few clean pixels start fronts of their own.
+pub fn arrival_times(age: &Image, weathered: &Mask, structure: &Orientation, nucleate: bool, seed: u64) -> Vec<f32> {
     let (w, h) = age.size();
     let mut g = rng::generator(seed, &[0x9a0]);
     let noise_seed = rng::derive(seed, &[0x9a1]);
@@ -126,7 +127,7 @@ pub fn arrival_times(age: &Image, weathered: &Mask, structure: &Orientation, see
     // Nucleation: new sites on clean pixels, drawn in proportion to their
     // age (slightly aged spots start first), each starting a little late.
     let clean = (w * h) - weathered.count();
-    let sites = ((clean as f32 / 4096.0) * NUCLEATION_DENSITY).round() as usize;
+    let sites = if nucleate { ((clean as f32 / 4096.0) * NUCLEATION_DENSITY).round() as usize } else { 0 };
     let weights: Vec<f32> = (0..w * h).map(|i| if weathered.bits()[i] { 0.0 } else { age.data()[i] * age.data()[i] }).collect();
     let total: f32 = weights.iter().sum();
     if total > 0.0 {
@@ -191,7 +192,7 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
     }
     let weathered = Mask::from_fn(w, h, |x, y| age.at(x, y, 0) >= cut);
     let clean = Mask::from_fn(w, h, |x, y| !weathered.get(x, y));
-    let arrival = arrival_times(age, &weathered, &orientation(input, STRUCTURE_SIGMA, Some(&clean)), seed);
+    let arrival = arrival_times(age, &weathered, &orientation(input, STRUCTURE_SIGMA, Some(&clean)), true, seed);
     // Arrival times of the clean pixels, sorted: the quantiles set the front.
     let mut clean_times: Vec<f32> = arrival.iter().zip(weathered.bits()).filter(|(_, &b)| !b).map(|(t, _)| *t).collect();
     clean_times.sort_by(f32::total_cmp);
@@ -254,7 +255,7 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
         })
         .collect();
     let hole = Mask::from_fn(w, h, |x, y| redraws.iter().any(|r| r.get(x, y)));
-    let layer = damage_layer(input, &weathered, &reached, &hole, band, &context, params, seed)?;
+    let layer = damage_layer(input, input, &weathered, &reached, &hole, band, &context, params, seed)?;
     let mut previous = input.clone();
     let mut frames = Vec::with_capacity(params.future);
     for (k, (&(t, _), redraw)) in fronts.iter().zip(&redraws).enumerate() {
@@ -274,6 +275,7 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
 /// coherent synthesis that continues the old, the same in every frame.
 #[allow(clippy::too_many_arguments)]
 fn damage_layer(
+    base: &Image,
     input: &Image,
     weathered: &Mask,
     grown: &Mask,
@@ -291,7 +293,7 @@ fn damage_layer(
     let target_edge = guide(grown, band, context)?;
     let op = OptimizeParams { patch, levels: Some(3), search_vote_iters: 6, uniformity: 0.0, ..OptimizeParams::default() };
     let mut filled = Synthesis::new(input)
-        .fill(input, hole)
+        .fill(base, hole)
         .guides(&source_edge, &target_edge, params.rebuild.guide_weight)
         .seed(rng::derive(seed, &[0xf2]))
         .optimize(&op)?;
@@ -299,6 +301,51 @@ fn damage_layer(
     // grown interiors with a third of the input damage's pixel detail.
     filled.coherent_copies(input, hole);
     Ok(filled.image)
+}
+
+/// Least change of a pixel's clamped edge distance, in bands, that makes
+/// it part of a receded rim (see [`receded_frame`]).
+const RIM_STEP: f32 = 0.25;
+
+/// A past frame whose damage has receded from `damage` (the input's) to
+/// `present` (a subset): the intact texture outside `present`, the input
+/// inside, and a rim redrawn where `present`'s edge cuts through the
+/// damage. The rim is the band of `present` within half a patch of its
+/// edge, where the input's own edge is farther by more than [`RIM_STEP`]
+/// bands; it is filled from the input with the same guides as the
+/// future's [`damage_layer`] (source: the input's damage edge; target:
+/// `present`'s), so a receded peel keeps a peel's rim and lip instead of
+/// showing a cut through its interior. (The future's rule, a change of
+/// half a band, leaves only a sliver under 2 px wide here, which the
+/// opening that drops slivers removes.)
+pub(crate) fn receded_frame(
+    input: &Image,
+    intact: &Image,
+    damage: &Mask,
+    present: &Mask,
+    params: &SequenceParams,
+    seed: u64,
+) -> Result<Image> {
+    let (w, h) = input.size();
+    let composite = Image::from_fn(w, h, input.channels(), |x, y, p| {
+        p.copy_from_slice(if present.get(x, y) { input.pixel(x, y) } else { intact.pixel(x, y) })
+    });
+    let patch = params.rebuild.patch;
+    let band = edge_band(patch);
+    let edge_of = |m: &Mask| -> Vec<f32> { m.signed_distance().iter().map(|d| (d / band).clamp(-1.0, 1.0)).collect() };
+    let (was, now) = (edge_of(damage), edge_of(present));
+    let redraw = Mask::from_fn(w, h, |x, y| {
+        let i = y * w + x;
+        present.get(x, y) && now[i] < 1.0 && was[i] - now[i] > RIM_STEP
+    })
+    .erode(1)
+    .dilate(1);
+    if redraw.count() == 0 {
+        return Ok(composite);
+    }
+    let context = gaussian_blur(input, CONTEXT_SIGMA * patch as f32).map(|v| v * CONTEXT_GUIDE);
+    let layer = damage_layer(&composite, input, damage, present, &redraw, band, &context, params, seed)?;
+    Ok(blend_where(&composite, &layer, &redraw.to_image()))
 }
 
 /// Half-width, in pixels, of the band around the damage's edge whose look

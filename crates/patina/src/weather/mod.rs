@@ -170,7 +170,7 @@ pub fn weather(
     };
     progress(Stage::Intact);
     let sp = &params.sequence;
-    let past = sequence::past(input, &intact_img, &age, sp, &|k| progress(Stage::Past(k, sp.past)))?;
+    let past = sequence::past(input, &intact_img, &age, sp, crate::rng::derive(seed, &[2]), &|k| progress(Stage::Past(k, sp.past)))?;
     let (cells, patch) = match age_grid {
         Some((n, (pw, ph), _)) => (n * n, pw.min(ph)),
         None => {
