@@ -97,9 +97,10 @@ const CONTEXT_SIGMA: f32 = 2.0;
 /// Weight of that context against the edge guide.
 const CONTEXT_GUIDE: f32 = 1.0;
 
-/// Arrival time of the weathering at every pixel (0 on weathered pixels).
+/// Arrival time of the weathering at every pixel (0 on weathered pixels;
+/// infinite outside `within`, when given, which the front never leaves).
 /// With `nucleate`, a few clean pixels start fronts of their own.
-pub fn arrival_times(age: &Image, weathered: &Mask, structure: &Orientation, nucleate: bool, seed: u64) -> Vec<f32> {
+pub fn arrival_times(age: &Image, weathered: &Mask, within: Option<&Mask>, structure: &Orientation, nucleate: bool, seed: u64) -> Vec<f32> {
     let (w, h) = age.size();
     let mut g = rng::generator(seed, &[0x9a0]);
     let noise_seed = rng::derive(seed, &[0x9a1]);
@@ -160,6 +161,9 @@ pub fn arrival_times(age: &Image, weathered: &Mask, structure: &Orientation, nuc
                 continue;
             }
             let j = ny as usize * w + nx as usize;
+            if within.is_some_and(|m| !m.bits()[j]) {
+                continue;
+            }
             // Slower across the structure than along it: peels run along
             // the grain, cracks along cracks.
             let cos = (dx as f32 * across[i].0 + dy as f32 * across[i].1) / len;
@@ -192,7 +196,7 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
     }
     let weathered = Mask::from_fn(w, h, |x, y| age.at(x, y, 0) >= cut);
     let clean = Mask::from_fn(w, h, |x, y| !weathered.get(x, y));
-    let arrival = arrival_times(age, &weathered, &orientation(input, STRUCTURE_SIGMA, Some(&clean)), true, seed);
+    let arrival = arrival_times(age, &weathered, None, &orientation(input, STRUCTURE_SIGMA, Some(&clean)), true, seed);
     // Arrival times of the clean pixels, sorted: the quantiles set the front.
     let mut clean_times: Vec<f32> = arrival.iter().zip(weathered.bits()).filter(|(_, &b)| !b).map(|(t, _)| *t).collect();
     clean_times.sort_by(f32::total_cmp);
