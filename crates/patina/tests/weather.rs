@@ -459,11 +459,17 @@ fn grown_to_t2(img: &Image, mask: &patina::image::Mask, seed: u64) -> Image {
 /// The last of 3 future frames, at time `t`, of `img` grown from `mask` as
 /// its age map.
 fn grown_to(img: &Image, mask: &patina::image::Mask, seed: u64, t: f32) -> Image {
+    let r = aged_from(img, mask, seed, 0, 3, t - 1.0);
+    r.frames.last().unwrap().image.clone()
+}
+
+/// The whole method on `img` with `mask` as its age map: `past` and
+/// `future` frames, the last at t = 1 + `span`.
+fn aged_from(img: &Image, mask: &patina::image::Mask, seed: u64, past: usize, future: usize, span: f32) -> weather::Weathered {
     let age = mask.to_image();
     let mut p = WeatherParams::default();
-    (p.sequence.past, p.sequence.future, p.sequence.future_span) = (0, 3, t - 1.0);
-    let r = weather::weather(img, &p, Overrides { age: Some(&age), ..Default::default() }, seed, &|_| {}).unwrap();
-    r.frames.last().unwrap().image.clone()
+    (p.sequence.past, p.sequence.future, p.sequence.future_span) = (past, future, span);
+    weather::weather(img, &p, Overrides { age: Some(&age), ..Default::default() }, seed, &|_| {}).unwrap()
 }
 
 /// The orange of [`rimmed_blooms`]' interiors (the plaster is never orange).
@@ -499,10 +505,7 @@ fn growing_damage_carries_its_rim_with_the_front_instead_of_leaving_rings() {
 #[test]
 fn receding_damage_keeps_its_rim() {
     let (img, mask) = rimmed_blooms(&samples::stucco(SIZE, SIZE, 5), [0.85, 0.45, 0.15]);
-    let age = mask.to_image();
-    let mut p = WeatherParams::default();
-    (p.sequence.past, p.sequence.future) = (3, 0);
-    let r = weather::weather(&img, &p, Overrides { age: Some(&age), ..Default::default() }, 7, &|_| {}).unwrap();
+    let r = aged_from(&img, &mask, 7, 3, 0, 1.0);
     let half = &r.frames[2];
     assert_eq!(half.t, 0.5);
     let frame = &half.image;
@@ -525,11 +528,8 @@ fn receding_damage_keeps_its_rim() {
 #[test]
 fn receding_cracks_shorten_instead_of_breaking_into_dashes() {
     let (img, mask) = samples::weather(&samples::stucco(SIZE, SIZE, 5), Weathering::CrackNetwork, 0.0, 11);
-    let age = mask.to_image();
-    let mut p = WeatherParams::default();
-    (p.sequence.past, p.sequence.future) = (3, 0);
-    let r = weather::weather(&img, &p, Overrides { age: Some(&age), ..Default::default() }, 7, &|_| {}).unwrap();
-    // Pieces of damage (8-connected, via a 1 px closing) per 1000 damaged pixels.
+    let r = aged_from(&img, &mask, 7, 3, 0, 1.0);
+    // Pieces of damage (4-connected, after a 1 px closing) per 1000 damaged pixels.
     let pieces = |frame: &Image| {
         let d = colour_distance(frame, &r.intact).unwrap();
         let damage = patina::image::Mask::from_fn(SIZE, SIZE, |x, y| d[y * SIZE + x] > 0.1).dilate(1).erode(1);

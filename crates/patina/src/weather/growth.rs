@@ -208,7 +208,7 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
     // inside, with interior material: the damage's edge moves with the
     // front instead of staying as a ring inside new damage.
     let band = edge_band(patch);
-    let context = gaussian_blur(input, CONTEXT_SIGMA * patch as f32).map(|v| v * CONTEXT_GUIDE);
+    let context = context(input, patch);
     // The front at each frame's time: the clean share weathered by t.
     let initial = weathered.count() as f32 / (w * h) as f32;
     let fronts: Vec<(f32, f32)> = (1..=params.future)
@@ -223,11 +223,11 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
             (t, front)
         })
         .collect();
-    let edge_of = |m: &Mask| -> Vec<f32> { m.signed_distance().iter().map(|d| (d / band).clamp(-1.0, 1.0)).collect() };
     // Per frame, the damaged pixels to re-draw: those whose place relative
     // to the edge moved by a visible step since they were last drawn (the
     // band the front crossed, the old rim now inside). Only masks so far.
-    let mut drawn = edge_of(&weathered);
+    let was = clamped_edge(&weathered, band);
+    let mut drawn = was.clone();
     let mut reached = weathered.clone();
     let redraws: Vec<Mask> = fronts
         .iter()
@@ -240,7 +240,7 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
             let raw = Image::from_fn(w, h, 1, |x, y, p| p[0] = if front >= arrival[y * w + x] { 1.0 } else { 0.0 });
             let smooth = gaussian_blur(&raw, OUTLINE_SMOOTHING);
             reached = Mask::from_fn(w, h, |x, y| reached.get(x, y) || smooth.at(x, y, 0) >= 0.5);
-            let edge = edge_of(&reached);
+            let edge = clamped_edge(&reached, band);
             // Slivers under 3 px wide are not re-drawn: drawn beside the
             // previous frame's pixels, they showed as flecks along cracks
             // and edges. They join a later, wider re-draw or keep the input.
@@ -259,7 +259,7 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
         })
         .collect();
     let hole = Mask::from_fn(w, h, |x, y| redraws.iter().any(|r| r.get(x, y)));
-    let layer = damage_layer(input, input, &weathered, &reached, &hole, band, &context, params, seed)?;
+    let layer = damage_layer(input, input, &was, &clamped_edge(&reached, band), &hole, &context, params, seed)?;
     let mut previous = input.clone();
     let mut frames = Vec::with_capacity(params.future);
     for (k, (&(t, _), redraw)) in fronts.iter().zip(&redraws).enumerate() {
@@ -271,20 +271,20 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
 }
 
 /// The grown damage drawn once, for the last frame: the pixels of `hole`
-/// (every pixel some frame re-draws) are filled ([`Synthesis::fill`])
-/// from the input, guided by the signed distance to the edge of `grown`,
-/// the last frame's damage (source: the input's damage edge), and by the
-/// wide blur of the input's colour (where the material comes from). Every
-/// frame takes its re-drawn pixels from this layer, so new damage is one
+/// (every pixel some frame re-draws) of `base` are filled
+/// ([`Synthesis::fill`]) from the input, guided by `target_edge`, the
+/// clamped edge distance ([`clamped_edge`]) of the last frame's damage
+/// (source: `source_edge`, the input damage's), and by the wide blur of the
+/// input's colour (`context`: where the material comes from). Every frame
+/// takes its re-drawn pixels from this layer, so new damage is one
 /// coherent synthesis that continues the old, the same in every frame.
 #[allow(clippy::too_many_arguments)]
 fn damage_layer(
     base: &Image,
     input: &Image,
-    weathered: &Mask,
-    grown: &Mask,
+    source_edge: &[f32],
+    target_edge: &[f32],
     hole: &Mask,
-    band: f32,
     context: &Image,
     params: &SequenceParams,
     seed: u64,
@@ -293,8 +293,8 @@ fn damage_layer(
     if hole.count() == 0 {
         return Ok(input.clone());
     }
-    let source_edge = guide(weathered, band, context)?;
-    let target_edge = guide(grown, band, context)?;
+    let source_edge = guide(source_edge, context)?;
+    let target_edge = guide(target_edge, context)?;
     let op = OptimizeParams { patch, levels: Some(3), search_vote_iters: 6, uniformity: 0.0, ..OptimizeParams::default() };
     let mut filled = Synthesis::new(input)
         .fill(base, hole)
@@ -308,48 +308,59 @@ fn damage_layer(
 }
 
 /// Least change of a pixel's clamped edge distance, in bands, that makes
-/// it part of a receded rim (see [`receded_frame`]).
+/// it part of a receded rim (see [`Recession::frame`]).
 const RIM_STEP: f32 = 0.25;
 
-/// A past frame whose damage has receded from `damage` (the input's) to
-/// `present` (a subset): the intact texture outside `present`, the input
-/// inside, and a rim redrawn where `present`'s edge cuts through the
-/// damage. The rim is the band of `present` within half a patch of its
-/// edge, where the input's own edge is farther by more than [`RIM_STEP`]
-/// bands; it is filled from the input with the same guides as the
-/// future's [`damage_layer`] (source: the input's damage edge; target:
-/// `present`'s), so a receded peel keeps a peel's rim and lip instead of
-/// showing a cut through its interior. (The future's rule, a change of
-/// half a band, leaves only a sliver under 2 px wide here, which the
-/// opening that drops slivers removes.)
-pub(crate) fn receded_frame(
-    input: &Image,
-    intact: &Image,
-    damage: &Mask,
-    present: &Mask,
-    params: &SequenceParams,
-    seed: u64,
-) -> Result<Image> {
-    let (w, h) = input.size();
-    let composite = Image::from_fn(w, h, input.channels(), |x, y, p| {
-        p.copy_from_slice(if present.get(x, y) { input.pixel(x, y) } else { intact.pixel(x, y) })
-    });
-    let patch = params.rebuild.patch;
-    let band = edge_band(patch);
-    let edge_of = |m: &Mask| -> Vec<f32> { m.signed_distance().iter().map(|d| (d / band).clamp(-1.0, 1.0)).collect() };
-    let (was, now) = (edge_of(damage), edge_of(present));
-    let redraw = Mask::from_fn(w, h, |x, y| {
-        let i = y * w + x;
-        present.get(x, y) && now[i] < 1.0 && was[i] - now[i] > RIM_STEP
-    })
-    .erode(1)
-    .dilate(1);
-    if redraw.count() == 0 {
-        return Ok(composite);
+/// The past frames' receding damage: what every frame shares, computed
+/// once (see [`Recession::frame`]).
+pub(crate) struct Recession<'a> {
+    input: &'a Image,
+    intact: &'a Image,
+    /// The input damage's clamped edge distance ([`clamped_edge`]).
+    was: Vec<f32>,
+    /// The guide's wide blur of the input's colour.
+    context: Image,
+    band: f32,
+}
+
+impl<'a> Recession<'a> {
+    /// The damage `damage` of `input` receding over `intact`, drawn with
+    /// patches of `patch` px.
+    pub(crate) fn new(input: &'a Image, intact: &'a Image, damage: &Mask, patch: usize) -> Self {
+        let band = edge_band(patch);
+        Recession { input, intact, was: clamped_edge(damage, band), context: context(input, patch), band }
     }
-    let context = gaussian_blur(input, CONTEXT_SIGMA * patch as f32).map(|v| v * CONTEXT_GUIDE);
-    let layer = damage_layer(&composite, input, damage, present, &redraw, band, &context, params, seed)?;
-    Ok(blend_where(&composite, &layer, &redraw.to_image()))
+
+    /// A past frame whose damage has receded to `present` (a subset of the
+    /// input's): the intact texture outside `present`, the input inside,
+    /// and a rim redrawn where `present`'s edge cuts through the damage.
+    /// The rim is the band of `present` within half a patch of its edge,
+    /// where the input's own edge is farther by more than [`RIM_STEP`]
+    /// bands; it is filled from the input with the same guides as the
+    /// future's [`damage_layer`] (source: the input's damage edge; target:
+    /// `present`'s), so a receded peel keeps a peel's rim and lip instead
+    /// of showing a cut through its interior. (The future's rule, a change
+    /// of half a band, leaves only a sliver under 2 px wide here, which the
+    /// opening that drops slivers removes.)
+    pub(crate) fn frame(&self, present: &Mask, params: &SequenceParams, seed: u64) -> Result<Image> {
+        let (input, intact) = (self.input, self.intact);
+        let (w, h) = input.size();
+        let composite = Image::from_fn(w, h, input.channels(), |x, y, p| {
+            p.copy_from_slice(if present.get(x, y) { input.pixel(x, y) } else { intact.pixel(x, y) })
+        });
+        let now = clamped_edge(present, self.band);
+        let redraw = Mask::from_fn(w, h, |x, y| {
+            let i = y * w + x;
+            present.get(x, y) && now[i] < 1.0 && self.was[i] - now[i] > RIM_STEP
+        })
+        .erode(1)
+        .dilate(1);
+        if redraw.count() == 0 {
+            return Ok(composite);
+        }
+        let layer = damage_layer(&composite, input, &self.was, &now, &redraw, &self.context, params, seed)?;
+        Ok(blend_where(&composite, &layer, &redraw.to_image()))
+    }
 }
 
 /// Half-width, in pixels, of the band around the damage's edge whose look
@@ -359,13 +370,23 @@ fn edge_band(patch: usize) -> f32 {
     (0.5 * patch as f32).max(3.0)
 }
 
-/// The guide channel: the signed distance to `damage`'s edge over `band`,
-/// clamped to [-1, 1], times [`EDGE_GUIDE`].
-fn guide(damage: &Mask, band: f32, context: &Image) -> Result<Image> {
-    let d = damage.signed_distance();
-    let edge = Image::from_fn(damage.width(), damage.height(), 1, |x, y, p| {
-        p[0] = EDGE_GUIDE * (d[y * damage.width() + x] / band).clamp(-1.0, 1.0)
-    });
+/// Per pixel, the signed distance to `damage`'s edge over `band`, clamped
+/// to [-1, 1]: where the pixel lies relative to the damage's rim.
+fn clamped_edge(damage: &Mask, band: f32) -> Vec<f32> {
+    damage.signed_distance().iter().map(|d| (d / band).clamp(-1.0, 1.0)).collect()
+}
+
+/// The wide blur of `input`'s colour that tells the guides where, at large
+/// scale, the material comes from, weighted by [`CONTEXT_GUIDE`].
+fn context(input: &Image, patch: usize) -> Image {
+    gaussian_blur(input, CONTEXT_SIGMA * patch as f32).map(|v| v * CONTEXT_GUIDE)
+}
+
+/// The guide channels: `edge` ([`clamped_edge`]) times [`EDGE_GUIDE`],
+/// beside `context`.
+fn guide(edge: &[f32], context: &Image) -> Result<Image> {
+    let (w, h) = context.size();
+    let edge = Image::from_data(w, h, 1, edge.iter().map(|e| EDGE_GUIDE * e).collect())?;
     Image::concat_channels(&[&edge, context])
 }
 

@@ -166,9 +166,9 @@ pub const LINK_REACH: usize = 4;
 /// Pixels that are not weathered: below their layer's age cut (see
 /// [`layer_cuts`]) and not linked to weathered pixels (links stop at
 /// `weathered_max` of the surface, and are not made with a fixed
-/// `discard`). A pixel at least
-/// [`LINK_SHARE`] of the cut joins the weathered pixels when a run of such
-/// pixels, at most [`LINK_REACH`] steps long, leads to one: the faint
+/// `discard`). A pixel at least [`LINK_SHARE`] of the cut joins the
+/// weathered pixels when a run of such pixels, at most [`LINK_REACH`]
+/// steps long, leads to one: the faint
 /// stretches of a crack the map rates below the cut and the soft rim of a
 /// peel. Without the link they stayed in the intact texture as dashes and
 /// ghost outlines, and served as its sources (`age_auc`, 256 px, residue:
@@ -192,8 +192,8 @@ pub fn allowed_sources(age: &Image, discard: Option<f32>, weathered_max: f32, la
         }
     }
     // Linked pixels join nearest first, while the weathered share stays
-    // within `weathered_max`.
-    // The paper's fixed fraction (`discard`) is kept exact: no links.
+    // within `weathered_max`; the paper's fixed fraction (`discard`) is
+    // kept exact, with no links.
     let cap = if discard.is_some() { 0 } else { (weathered_max * (w * h) as f32) as usize };
     let mut weathered = queue.len();
     while let Some(i) = queue.pop_front() {
@@ -272,21 +272,21 @@ pub fn intact(img: &Image, age: &Image, layers: Option<&Layers>, params: &Intact
 mod tests {
     use super::*;
 
-    /// A blob above the cut with a faint tail (0.8 of the cut) leading away
-    /// from it, and an equally faint stroke elsewhere: the tail's first
+    /// A blob above the cut with a faint tail (between the link share and
+    /// the cut) leading away from it, and an equally faint stroke elsewhere: the tail's first
     /// [`LINK_REACH`] pixels join the blob, the lone stroke does not, and a
     /// fixed discarded fraction links nothing.
     #[test]
     fn faint_stretches_touching_damage_join_it_and_lone_ones_do_not() {
         let (w, h) = (64, 32);
-        let faint = 0.8;
+        let blob_age = 0.8;
         let map = |tail_age: f32| {
             Image::from_fn(w, h, 1, |x, y, p| {
                 let blob = (4..10).contains(&x) && (4..10).contains(&y);
                 let tail = (10..30).contains(&x) && y == 6;
                 let stroke = (40..60).contains(&x) && y == 20;
                 p[0] = if blob {
-                    faint
+                    blob_age
                 } else if tail || stroke {
                     tail_age
                 } else {

@@ -134,14 +134,15 @@ pub(crate) fn settle(rebuilt: &Image, template: &Image, previous: &Image, intact
 /// ([`super::growth::OUTLINE_SMOOTHING`]). Each frame is the intact
 /// texture outside the present damage and the input inside, with a rim
 /// redrawn where the receded edge cuts through the damage
-/// ([`super::growth::receded_frame`]).
+/// ([`super::growth::Recession::frame`]).
 ///
 /// Until stop 50 a frame was a per-pixel blend of intact and input with a
 /// soft edge in t, revealed core first by depth and age: cut-outs of the
 /// damage's interior with no rim. In a blind review of 15 photos the
 /// redrawn rims (with a front receding from the unchanged pixels) were
-/// preferred on 6, the blend on 2 (moss, cracked wood), 7 ties. The paper instead rebuilds cross-faded
-/// templates, which here only added noise and a jump at t = 1.
+/// preferred on 6, the blend on 2 (moss, cracked wood), 7 ties. The paper
+/// instead rebuilds cross-faded templates, which here only added noise
+/// and a jump at t = 1.
 pub fn past(
     input: &Image,
     intact: &Image,
@@ -154,13 +155,14 @@ pub fn past(
     let rank = change_ranks(input, intact, age, seed)?;
     let (w, h) = input.size();
     let damage = Mask::from_fn(w, h, |x, y| rank.at(x, y, 0) > 0.0);
+    let recession = super::growth::Recession::new(input, intact, &damage, params.rebuild.patch);
     let mut frames = Vec::with_capacity(params.past);
     for k in 1..=params.past {
         let t = k as f32 / (params.past + 1) as f32;
         let raw = rank.map(|q| if q > 0.0 && q >= 1.0 - t { 1.0 } else { 0.0 });
         let smooth = gaussian_blur(&raw, super::growth::OUTLINE_SMOOTHING);
         let present = Mask::from_fn(w, h, |x, y| damage.get(x, y) && smooth.at(x, y, 0) >= 0.5);
-        let image = super::growth::receded_frame(input, intact, &damage, &present, params, rng::derive(seed, &[k as u64]))?;
+        let image = recession.frame(&present, params, rng::derive(seed, &[k as u64]))?;
         frames.push(Frame { t, image });
         progress(k);
     }
@@ -191,7 +193,7 @@ const CORE_DEPTH: f32 = 6.0;
 /// thin damage (one or two pixels deep everywhere) was revealed by noise,
 /// so cracks and plank seams came back as chains of dashes (a synthetic
 /// crack network at t = 0.5: 35.9 pieces per 1000 damaged pixels; now
-/// 2.5). In a blind review of the past frames of 15 photos this order was
+/// 3.7). In a blind review of the past frames of 15 photos this order was
 /// preferred on 8, the older one on 2 (damask, shutters), 5 ties; the
 /// grades summed 27 -> 33. Tried and not kept: extra seeds, one per 2048
 /// damaged pixels, broke a single spall into a scatter of pill-shaped
