@@ -184,6 +184,36 @@ fn grime_in_the_grooves_keeps_its_colour_as_the_carving_wears() {
     eprintln!("grooves' red/blue {before:.3} -> {after:.3}, carving kept {carving:.2}");
 }
 
+/// A deep shadow's tint is the sky's, not the stone's: where the wear fills
+/// a shadowed groove wall in (lifting it more than threefold), the wall
+/// takes the lit stone's colour instead of turning into a bright blue patch.
+#[test]
+fn shadows_filled_in_by_the_wear_take_the_lit_stones_colour() {
+    let clean = photo();
+    // Sky-lit shadow: the darker a slab pixel is than the plain stone
+    // (0.55), the bluer.
+    let shadow = |x: usize, y: usize| if slab().get(x, y) { ((0.55 - clean.at(x, y, 0)) / 0.4).clamp(0.0, 1.0) } else { 0.0 };
+    let input = Image::from_fn(W, H, 3, |x, y, p| {
+        let s = shadow(x, y);
+        let tint = [1.0 - 0.35 * s, 1.0 - 0.1 * s, 1.0];
+        p.iter_mut().zip(clean.pixel(x, y)).zip(tint).for_each(|((o, v), k)| *o = v * k);
+    });
+    let params = StoneParams { roughen: false, pits: false, erosion: false, n: 400.0, ..Default::default() };
+    let prep = stone::prepare(&input, Some(&slab()), None, &params).unwrap();
+    let frames = stone::sequence(&prep, &[200.0], 1, None).unwrap();
+    let linear = |img: &Image| luminance(&img.map(|v| v.powf(2.2)));
+    let (before, after) = (linear(&input), linear(&frames[0].image));
+    let lifted: Vec<usize> =
+        (0..W * H).filter(|&i| carved(i) && shadow(i % W, i / W) > 0.5 && after.data()[i] > 3.0 * before.data()[i]).collect();
+    assert!(lifted.len() >= 40, "only {} shadow pixels were lifted threefold: the test needs them", lifted.len());
+    // Blue over red, averaged over the lifted shadows.
+    let coolness =
+        |img: &Image| lifted.iter().map(|&i| img.data()[3 * i + 2] / img.data()[3 * i].max(1e-3)).sum::<f32>() / lifted.len() as f32;
+    let (was, is) = (coolness(&input), coolness(&frames[0].image));
+    assert!(is - 1.0 < 0.5 * (was - 1.0), "the lifted shadows' blue/red went {was:.3} -> {is:.3}");
+    eprintln!("{} lifted shadow pixels, blue/red {was:.3} -> {is:.3}", lifted.len());
+}
+
 #[test]
 fn the_form_keeps_its_luminance_histogram() {
     let params = StoneParams { erosion: false, n: 400.0, ..Default::default() };

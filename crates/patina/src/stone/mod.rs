@@ -313,6 +313,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     } else {
         None
     };
+    let lit = lit_chromaticity(&prep.linear, &prep.mask, prep.scale);
     let fade: Option<Vec<f32>> = (p.feather > 0.0).then(|| prep.mask.distance_inside().iter().map(|d| (d / p.feather).min(1.0)).collect());
     let mut done = 0;
     let mut frames = Vec::with_capacity(times.len());
@@ -320,7 +321,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         let weights = prep.borrowing.weights(&prep.mask, (p.k, t), &chips);
         let smoothed = update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.sources), &prep.borrowing)
             .map(|v| v.max(0.0).powf(GAMMA));
-        let smoothed = keep_colour(&smoothed, &prep.linear);
+        let smoothed = keep_colour(&smoothed, &prep.linear, &lit);
         let rough = if p.roughen { roughen::roughen(&smoothed, &focused, &fractal, p.nu, p.k, t) } else { smoothed };
         let rough = if p.pits { pits::pit(&rough, &focused, p.k, t, seed) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
@@ -376,30 +377,57 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
 }
 
 /// The update's luminance with the photo's colour: each pixel of `worn`
-/// becomes the original (linear RGB) scaled by the change of luminance the
-/// wear made, as a change of shading scales the light every channel
-/// reflects. The scale is held within 1/[`MAX_SHADING_GAIN`] to
-/// [`MAX_SHADING_GAIN`] and the rest of the change added equally to every
-/// channel, so a near-black pit turns grey when it lightens instead of
-/// amplifying its faint tint into a coloured dot.
+/// keeps the original's chromaticity (linear RGB over luminance) at its
+/// new luminance, as a change of shading scales the light every channel
+/// reflects; where the wear lightens a pixel by more than
+/// [`LIFT_KEEPS_TINT`] times, its chromaticity moves towards the lit
+/// stone's around it (`lit`, [`lit_chromaticity`]), all the way at
+/// [`MAX_SHADING_GAIN`] times and above.
 ///
 /// Not in the paper, which updates each channel. Grime in a carving's
 /// hollows, stains and lichen are colour on the stone, not relief: worn
 /// channel by channel they faded towards the stone's prevailing colour,
 /// and the beige grime between a Buddha's curls turned blue-white (a
-/// "frost" in two blind reviews).
-fn keep_colour(worn: &Image, linear: &Image) -> Image {
+/// "frost" in two blind reviews). But a deep shadow's tint is the light's,
+/// not the stone's: a sky-lit groove filled in by the wear kept its blue
+/// (granite letters lifted 2.7 times turned into flat blue patches), and a
+/// near-black fleck lifted fourfold turned into a vivid orange dot. Those
+/// lifts are far above what grime in a worn groove gets, so the share of
+/// the lit stone's colour grows with the lift.
+fn keep_colour(worn: &Image, linear: &Image, lit: &Image) -> Image {
     let (a, b) = (luminance(worn), luminance(linear));
+    let span = (MAX_SHADING_GAIN / LIFT_KEEPS_TINT).ln();
     Image::from_fn(linear.width(), linear.height(), 3, |x, y, px| {
         let (new, old) = (a.at(x, y, 0).max(0.0), b.at(x, y, 0).max(0.0));
-        let gain = if old > 0.0 { (new / old).clamp(1.0 / MAX_SHADING_GAIN, MAX_SHADING_GAIN) } else { 1.0 };
-        let rest = new - gain * old;
-        px.iter_mut().zip(linear.pixel(x, y)).for_each(|(p, v)| *p = (v * gain + rest).max(0.0))
+        let share = if old > 0.0 { ((new / old / LIFT_KEEPS_TINT).max(1.0).ln() / span).min(1.0) } else { 1.0 };
+        let own = linear.pixel(x, y);
+        for ((p, &v), &l) in px.iter_mut().zip(own).zip(lit.pixel(x, y)) {
+            let tint = if old > 0.0 { v / old } else { l };
+            *p = new * (tint + share * (l - tint));
+        }
     })
 }
 
-/// Largest factor the wear's change of shading scales a pixel's colour by.
+/// Lift (new over old luminance) up to which the wear keeps a pixel's own
+/// tint whole ([`keep_colour`]).
+const LIFT_KEEPS_TINT: f32 = 1.5;
+/// Lift from which a pixel takes the lit stone's tint whole.
 const MAX_SHADING_GAIN: f32 = 4.0;
+
+/// The chromaticity of the lit stone around each pixel of `object`:
+/// linear RGB over luminance, both summed over a Gaussian of `sigma` px on
+/// the object, so the bright pixels, which hold most of the light, set it.
+fn lit_chromaticity(linear: &Image, object: &Mask, sigma: f32) -> Image {
+    let (w, h) = linear.size();
+    let on = |x: usize, y: usize| if object.get(x, y) { 1.0 } else { 0.0 };
+    let masked = Image::from_fn(w, h, 3, |x, y, p| p.iter_mut().zip(linear.pixel(x, y)).for_each(|(o, v)| *o = v * on(x, y)));
+    let light = crate::image::filter::gaussian_blur(&masked, sigma);
+    let lum = luminance(&light);
+    Image::from_fn(w, h, 3, |x, y, p| {
+        let l = lum.at(x, y, 0);
+        p.iter_mut().zip(light.pixel(x, y)).for_each(|(o, v)| *o = if l > 1e-6 { v / l } else { 1.0 })
+    })
+}
 
 /// KS distance the contrast step settles for (the tolerance).
 pub const CONTRAST_KS: f32 = 0.05;
