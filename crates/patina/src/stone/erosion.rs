@@ -58,7 +58,9 @@ impl Erosion {
                 0.45 + 1.3 * ((n - 0.5) * 2.0 + 0.5).clamp(0.0, 1.0)
             })
             .collect();
-        Erosion { object: object.clone(), colours: linear.clone(), durability, protection: thinness(object), bleed }
+        let room = room_behind(object);
+        let protection = thinness(object).iter().zip(room.bits()).map(|(&p, &r)| if r { p } else { 0.0 }).collect();
+        Erosion { object: object.clone(), colours: linear.clone(), durability, protection, bleed }
     }
 
     /// Eq. (5), the erosion rate of a silhouette pixel: the exposed share of
@@ -128,6 +130,30 @@ impl Erosion {
         }
     }
 }
+
+/// The object pixels the silhouette may lose: those within [`FILL_REACH`]
+/// px of background the fill can copy from, the centre of a whole
+/// [`FILL_PATCH`] px patch of background beyond the object's rim
+/// ([`RIM_SKIP`]). Elsewhere the object stands against the image's frame
+/// with a sliver of background, or none, between: what is behind it is
+/// off the photo, and no fill can show it. The fill's last resort there,
+/// the mirror of that sliver, spread a piece of a pink building beside a
+/// slate into a flat mauve disc. So those sides keep their outline, as a
+/// photo's frame keeps what it cuts.
+fn room_behind(object: &Mask) -> Mask {
+    let (w, h) = object.size();
+    let beyond_rim = object.dilate(RIM_SKIP);
+    let sources = Mask::from_fn(w, h, |x, y| !beyond_rim.get(x, y));
+    let reach = sources.erode(FILL_PATCH / 2).dilate(FILL_REACH);
+    Mask::from_fn(w, h, |x, y| object.get(x, y) && reach.get(x, y))
+}
+
+/// Side (px) of the fill's patches.
+pub const FILL_PATCH: usize = 7;
+
+/// Farthest (px) an eroded pixel may lie from the background the fill
+/// copies from ([`room_behind`]): the fill works in [`FILL_CELL`] px cells.
+const FILL_REACH: usize = FILL_CELL;
 
 /// Per pixel, min(1, thickness / [`THIN`]) (at least [`THIN_FLOOR`]), where
 /// the thickness of the object around a pixel is twice the largest
@@ -215,7 +241,8 @@ pub const FILL_CELL: usize = 64;
 /// chevrons. The hole is a thin band along the outline, so the work goes
 /// cell by cell ([`FILL_CELL`] px, in raster order), each on a crop
 /// reaching [`FILL_SOURCE`] px around it, with the cells filled before it
-/// as fixed context so the band continues across cell borders. A cell
+/// as fixed context so the band continues across cell borders (the hole of
+/// the cells after it is filled too, and filled again in its turn). A cell
 /// with too few whole source patches takes the mirror. Pixels outside
 /// `hole` are `image`'s.
 pub fn synthesize_background(image: &Image, background: &Mask, hole: &Mask, seed: u64) -> crate::error::Result<Image> {
@@ -224,7 +251,7 @@ pub fn synthesize_background(image: &Image, background: &Mask, hole: &Mask, seed
     let near_object = Mask::from_fn(w, h, |x, y| !background.get(x, y)).dilate(RIM_SKIP);
     let mirror = fill_background(image, background, hole);
     let margin = FILL_SOURCE + 4;
-    let op = crate::synth::OptimizeParams { patch: 7, vote: crate::synth::VoteWeights::Robust, ..Default::default() };
+    let op = crate::synth::OptimizeParams { patch: FILL_PATCH, vote: crate::synth::VoteWeights::Robust, ..Default::default() };
     for cy in (0..h).step_by(FILL_CELL) {
         for cx in (0..w).step_by(FILL_CELL) {
             let (cx1, cy1) = ((cx + FILL_CELL).min(w), (cy + FILL_CELL).min(h));
@@ -237,18 +264,25 @@ pub fn synthesize_background(image: &Image, background: &Mask, hole: &Mask, seed
                 let (gx, gy) = (x + x0, y + y0);
                 (cx..cx1).contains(&gx) && (cy..cy1).contains(&gy) && hole.get(gx, gy)
             });
+            // The hole of this cell and of the cells after it: those still
+            // hold the stone, which as context drew a line of stone-matching
+            // pixels along every cell border.
+            let open = Mask::from_fn(cw, ch, |x, y| {
+                let (gx, gy) = (x + x0, y + y0);
+                hole.get(gx, gy) && (gy / FILL_CELL, gx / FILL_CELL) >= (cy / FILL_CELL, cx / FILL_CELL)
+            });
             let sources = Mask::from_fn(cw, ch, |x, y| background.get(x + x0, y + y0) && !near_object.get(x + x0, y + y0));
             let synthesized = if sources.erode(3).count() >= 64 && cw >= 16 && ch >= 16 {
                 let crop = out.crop(x0, y0, cw, ch)?;
                 let guide_source = crate::image::filter::gaussian_blur(&crop, GUIDE_SIGMA);
                 let guide_target = crate::image::filter::gaussian_blur(&mirror.crop(x0, y0, cw, ch)?, GUIDE_SIGMA);
                 let mut filled = crate::synth::Synthesis::new(&crop)
-                    .fill(&crop, &cell_hole)
+                    .fill(&crop, &open)
                     .source_mask(&sources)
                     .guides(&guide_source, &guide_target, 1.0)
                     .seed(crate::rng::derive(seed ^ 0xf111, &[cx as u64, cy as u64]))
                     .optimize(&op)?;
-                filled.coherent_copies(&crop, &cell_hole);
+                filled.coherent_copies(&crop, &open);
                 Some(filled.image)
             } else {
                 None
@@ -329,6 +363,48 @@ mod tests {
         }
         let bare_left = (0..w * h).filter(|&i| arm(i % w, i / w) && bare.object.bits()[i]).count();
         assert!(bare_left < left, "protection made no difference: {bare_left} vs {left}");
+    }
+
+    #[test]
+    fn a_side_against_the_frame_keeps_its_outline_while_the_top_erodes() {
+        // A slab whose right side stands 2 px from the image's right edge;
+        // below row 100 no background the fill could copy is within reach.
+        let (w, h) = (120, 180);
+        let object = Mask::from_fn(w, h, |x, y| (20..w - 2).contains(&x) && (30..h).contains(&y));
+        let side_lost = |protected: bool| {
+            let mut erosion = Erosion::new(&Image::new(w, h, 3), &object, 0.0, 3);
+            if !protected {
+                erosion.protection = thinness(&object);
+            }
+            for _ in 0..12 {
+                erosion.step();
+            }
+            let top = (20..w - 24).filter(|&x| !erosion.object.get(x, 30)).count();
+            (top, (100..h).filter(|&y| !erosion.object.get(w - 3, y)).count())
+        };
+        let (top, side) = side_lost(true);
+        assert!(top > 40, "the top lost only {top} of its {} outline pixels", w - 44);
+        assert_eq!(side, 0, "the side against the frame lost {side} px");
+        assert!(side_lost(false).1 > 20, "without the check the side would erode too");
+    }
+
+    #[test]
+    fn the_fill_has_no_seam_where_its_cells_meet() {
+        // Stone (0.8) below row 50 of a smooth mottled background (0.2 to
+        // 0.7); the top 12 rows of the stone are the hole, across two cell
+        // borders.
+        let (w, h) = (3 * FILL_CELL, 100);
+        let image = Image::from_fn(w, h, 1, |x, y, p| {
+            p[0] = if y >= 50 { 0.8 } else { 0.2 + 0.5 * crate::samples::value_noise(4, x as f32 / 6.0, y as f32 / 6.0) }
+        });
+        let background = Mask::from_fn(w, h, |_, y| y < 50);
+        let hole = Mask::from_fn(w, h, |_, y| (50..62).contains(&y));
+        let filled = synthesize_background(&image, &background, &hole, 1).unwrap();
+        // The mean step between a column and the next, over the hole's rows.
+        let step = |x: usize| (50..62).map(|y| (filled.at(x + 1, y, 0) - filled.at(x, y, 0)).abs()).sum::<f32>() / 12.0;
+        let seams = (step(FILL_CELL - 1) + step(2 * FILL_CELL - 1)) / 2.0;
+        let typical = (0..w - 1).map(step).sum::<f32>() / (w - 1) as f32;
+        assert!(seams < 2.5 * typical, "the step across a cell border is {seams:.3}, elsewhere {typical:.3}");
     }
 
     #[test]
