@@ -214,6 +214,47 @@ fn shadows_filled_in_by_the_wear_take_the_lit_stones_colour() {
     eprintln!("{} lifted shadow pixels, blue/red {was:.3} -> {is:.3}", lifted.len());
 }
 
+/// The photo's own pits open, not heal: small dark holes in the plain
+/// stone between the carving stay at least as dark, against the stone
+/// around them, as the carving around them wears.
+#[test]
+fn the_stones_own_pits_stay_open_as_the_carving_wears() {
+    let lines = strokes();
+    let plain = |x: f32, y: f32| (-3..=3).all(|d| depth(&lines, x + d as f32, y) < 0.15 && depth(&lines, x, y + d as f32) < 0.15);
+    let mut centres: Vec<(f32, f32)> = Vec::new();
+    for (x, y) in (0..30).flat_map(|i| (0..23).map(move |j| (64.5 + 2.0 * i as f32, 56.5 + 2.0 * j as f32))) {
+        if plain(x, y) && centres.iter().all(|&(a, b)| (a - x).hypot(b - y) > 9.0) {
+            centres.push((x, y));
+        }
+    }
+    assert!(centres.len() >= 6, "only {} plain places for pits", centres.len());
+    let in_pit = |x: usize, y: usize| centres.iter().any(|&(cx, cy)| (x as f32 + 0.5 - cx).hypot(y as f32 + 0.5 - cy) < 1.6);
+    let clean = photo();
+    let input = Image::from_fn(W, H, 3, |x, y, p| {
+        let k = if in_pit(x, y) { 0.3 } else { 1.0 };
+        p.iter_mut().zip(clean.pixel(x, y)).for_each(|(o, v)| *o = v * k);
+    });
+    let params = StoneParams { roughen: false, erosion: false, n: 400.0, ..Default::default() };
+    let prep = stone::prepare(&input, Some(&slab()), None, &params).unwrap();
+    let frames = stone::sequence(&prep, &[200.0], 1, None).unwrap();
+    // Each pit's luminance (linear) over the stone's 3.5 to 5.5 px around it.
+    let depth = |img: &Image| {
+        let l = luminance(&img.map(|v| v.powf(2.2)));
+        let mean = |keep: &dyn Fn(f32) -> bool, c: (f32, f32)| {
+            let v: Vec<f32> =
+                (0..W * H).filter(|&i| keep(((i % W) as f32 + 0.5 - c.0).hypot((i / W) as f32 + 0.5 - c.1))).map(|i| l.data()[i]).collect();
+            v.iter().sum::<f32>() / v.len() as f32
+        };
+        centres.iter().map(|&c| mean(&|r| r < 1.0, c) / mean(&|r| (3.5..5.5).contains(&r), c)).sum::<f32>() / centres.len() as f32
+    };
+    let field: Vec<usize> = (0..W * H).filter(|&i| carved(i) && !in_pit(i % W, i / W)).collect();
+    let carving = band_energy(&frames[0].image, &field, 1.5, 6.0) / band_energy(&input, &field, 1.5, 6.0);
+    let (before, after) = (depth(&input), depth(&frames[0].image));
+    assert!(carving < 0.75, "the carving kept {carving:.2}: it must wear for the test to mean anything");
+    assert!(after <= before * 1.1, "the pits healed: luminance over their surroundings {before:.3} -> {after:.3}");
+    eprintln!("pits {before:.3} -> {after:.3} of their surroundings, carving kept {carving:.2}");
+}
+
 #[test]
 fn the_form_keeps_its_luminance_histogram() {
     let params = StoneParams { erosion: false, n: 400.0, ..Default::default() };

@@ -189,6 +189,28 @@ pub fn equalize(img: &Image) -> Image {
     Image::from_data(img.width(), img.height(), 1, out).expect("same size")
 }
 
+/// The grey-level closing of a one-channel image: the maximum over a
+/// (2r+1)^2 square, then the minimum over the same square (both
+/// separable, clamped at the image's edges). It fills dark features
+/// narrower than the square and keeps everything else.
+pub fn closing(img: &Image, r: usize) -> Image {
+    let pass = |src: &Image, horizontal: bool, max: bool| -> Image {
+        let (w, h) = src.size();
+        let mut out = vec![0f32; w * h];
+        out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, o) in row.iter_mut().enumerate() {
+                let (pos, len) = if horizontal { (x, w) } else { (y, h) };
+                let range = pos.saturating_sub(r)..(pos + r + 1).min(len);
+                let values = range.map(|q| if horizontal { src.at(q, y, 0) } else { src.at(x, q, 0) });
+                *o = if max { values.fold(f32::MIN, f32::max) } else { values.fold(f32::MAX, f32::min) };
+            }
+        });
+        Image::from_data(w, h, 1, out).expect("same size")
+    };
+    let dilated = pass(&pass(img, true, true), false, true);
+    pass(&pass(&dilated, true, false), false, false)
+}
+
 /// Otsu's threshold of `values` (64 bins over their range).
 pub fn otsu(values: &[f32]) -> f32 {
     let (lo, hi) = values.iter().fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)));
@@ -220,6 +242,18 @@ pub fn otsu(values: &[f32]) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn closing_fills_narrow_dark_features_and_keeps_wide_ones() {
+        // A 3 px dark dot and a 12 px dark square on 1.0.
+        let img = Image::from_fn(40, 20, 1, |x, y, p| {
+            p[0] = if (4..7).contains(&x) && (8..11).contains(&y) || (20..32).contains(&x) && (4..16).contains(&y) { 0.2 } else { 1.0 }
+        });
+        let closed = closing(&img, 2);
+        assert_eq!(closed.at(5, 9, 0), 1.0, "the dot is filled");
+        assert_eq!(closed.at(26, 10, 0), 0.2, "the square's inside stays");
+        assert_eq!(closed.at(15, 10, 0), 1.0, "the surface stays");
+    }
 
     #[test]
     fn horizontal_stripes_point_across_in_y_and_are_coherent() {

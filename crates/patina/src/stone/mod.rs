@@ -141,6 +141,8 @@ pub struct Prepared {
     /// What the update borrows, the same at every t.
     pub borrowing: update::Borrowing,
     pub fractal: Fractal,
+    /// The photo's own pits, which the wear opens instead of healing.
+    pub own_pits: pits::OwnPits,
     pub params: StoneParams,
 }
 
@@ -222,6 +224,7 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         p.iter_mut().zip(rgb.pixel(x, y).iter().zip(base.pixel(x, y))).for_each(|(o, (l, b))| *o = l - b)
     });
     let borrowing = update::Borrowing::new(&tendency, &grain, &mask, (&patches, &offsets), scale);
+    let own_pits = pits::OwnPits::find(&linear, &tight);
     Ok(Prepared {
         linear,
         original: rgb,
@@ -236,6 +239,7 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         scale,
         borrowing,
         fractal,
+        own_pits,
         params: params.clone(),
     })
 }
@@ -323,7 +327,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
             .map(|v| v.max(0.0).powf(GAMMA));
         let smoothed = keep_colour(&smoothed, &prep.linear, &lit);
         let rough = if p.roughen { roughen::roughen(&smoothed, &focused, &fractal, p.nu, p.k, t) } else { smoothed };
-        let rough = if p.pits { pits::pit(&rough, &focused, p.k, t, seed) } else { rough };
+        let rough = if p.pits { prep.own_pits.keep(&pits::pit(&rough, &focused, p.k, t, seed), p.k, t) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
         if erode {
             let target = erosion::iterations(object_pixels, p.erosion_speed, t);

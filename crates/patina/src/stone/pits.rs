@@ -11,7 +11,9 @@
 //! shadow by its own depth, its rim on the side facing the light (the top
 //! left) slightly brightened, anti-aliased at the edge.
 
-use crate::image::Image;
+use crate::image::color::luminance;
+use crate::image::filter::closing;
+use crate::image::{Image, Mask};
 use rayon::prelude::*;
 
 /// Spacing (px) of the candidate grid.
@@ -103,6 +105,124 @@ pub fn pit(linear: &Image, tendency: &Image, k: f32, t: f32, seed: u64) -> Image
         }
     });
     out
+}
+
+/// The photo's own pits: the small dark cavities it already has, which
+/// weathering opens further rather than heals. Not in the paper, whose
+/// patch update borrows calm stone's gradients over them: the black pits
+/// in a Buddha's curls closed up as the stone wore, the opposite of what
+/// weather does (a blind review named it).
+///
+/// A pit is a compact dark spot: pixels darker than [`OWN_PIT_RATIO`] of
+/// the luminance's grey closing over a (2 [`OWN_PIT_REACH`] + 1)^2 square
+/// (the surface the pit is sunk into), in a 4-connected piece of at most
+/// [`OWN_PIT_AREA`] px whose bounding box is at most [`OWN_PIT_ELONGATION`]
+/// times longer than wide and which plain surface encloses
+/// ([`OWN_PIT_ENCLOSED`]). Longer dark runs, and pieces that run on into
+/// shadow, are carving (a letter's shadowed groove) and wear as carving
+/// does.
+pub struct OwnPits {
+    /// Per pixel, luminance over the closing on the pits and the pixel
+    /// around them (below 1), 1 elsewhere.
+    depth: Image,
+}
+
+/// Half side (px) of the square the pits' surroundings are taken over.
+pub const OWN_PIT_REACH: usize = 3;
+/// A pit pixel has at most this share of its surroundings' luminance.
+pub const OWN_PIT_RATIO: f32 = 0.6;
+/// Largest pit (px).
+pub const OWN_PIT_AREA: usize = 48;
+/// Longest side of a pit's bounding box over its shortest.
+pub const OWN_PIT_ELONGATION: usize = 3;
+/// Share of the ring 1-2 px around a pit that must be plain surface (at
+/// least [`OWN_PIT_RIM`] of its surroundings' luminance): a pit is a hole
+/// in the surface, where a piece of a letter's shadowed groove runs on
+/// into more shadow.
+pub const OWN_PIT_ENCLOSED: f32 = 0.85;
+/// Luminance share of the surroundings from which a pixel is plain surface.
+pub const OWN_PIT_RIM: f32 = 0.8;
+/// How much deeper (as an exponent on the pit's depth ratio) the pits get
+/// once fully weathered: at 1 - exp(-k t) = 1 a pit of ratio q reaches
+/// q^(1 + this).
+pub const OWN_PIT_DEEPENING: f32 = 0.5;
+
+impl OwnPits {
+    /// The pits of `linear` (RGB, linear light) on `object`.
+    pub fn find(linear: &Image, object: &Mask) -> OwnPits {
+        let (w, h) = object.size();
+        let lum = luminance(linear);
+        let surface = closing(&lum, OWN_PIT_REACH);
+        let ratio: Vec<f32> =
+            lum.data().iter().zip(surface.data()).map(|(&l, &c)| if c > 1e-6 { (l / c).clamp(0.0, 1.0) } else { 1.0 }).collect();
+        let dark: Vec<bool> = (0..w * h).map(|i| object.bits()[i] && ratio[i] < OWN_PIT_RATIO).collect();
+        let (label, count) = crate::image::region::components(&dark, w, h);
+        // Per piece: pixel count and bounding box.
+        let mut pieces = vec![(0usize, usize::MAX, usize::MAX, 0usize, 0usize); count];
+        for (i, &l) in label.iter().enumerate() {
+            if l != u32::MAX {
+                let (x, y) = (i % w, i / w);
+                let p = &mut pieces[l as usize];
+                *p = (p.0 + 1, p.1.min(x), p.2.min(y), p.3.max(x), p.4.max(y));
+            }
+        }
+        // Per piece: the pixels of the ring 1-2 px around it, and how many
+        // of them are plain surface.
+        let near = Mask::from_fn(w, h, |x, y| dark[y * w + x]).dilate(2);
+        let mut ring = vec![(0usize, 0usize); count];
+        let labels = &label;
+        for i in (0..w * h).filter(|&i| near.bits()[i] && !dark[i]) {
+            let (x, y) = (i % w, i / w);
+            let (x0, y0, x1, y1) = (x.saturating_sub(2), y.saturating_sub(2), (x + 2).min(w - 1), (y + 2).min(h - 1));
+            let mut seen: [u32; 4] = [u32::MAX; 4];
+            for l in (y0..=y1).flat_map(|yy| (x0..=x1).map(move |xx| labels[yy * w + xx])).filter(|&l| l != u32::MAX) {
+                if seen.contains(&l) {
+                    continue;
+                }
+                if let Some(slot) = seen.iter_mut().find(|s| **s == u32::MAX) {
+                    *slot = l;
+                }
+                let r = &mut ring[l as usize];
+                *r = (r.0 + 1, r.1 + usize::from(ratio[i] >= OWN_PIT_RIM));
+            }
+        }
+        let is_pit: Vec<bool> = pieces
+            .iter()
+            .zip(&ring)
+            .map(|(&(n, x0, y0, x1, y1), &(around, plain))| {
+                let (a, b) = (x1 - x0 + 1, y1 - y0 + 1);
+                n <= OWN_PIT_AREA && a.max(b) <= OWN_PIT_ELONGATION * a.min(b) && plain as f32 >= OWN_PIT_ENCLOSED * around as f32
+            })
+            .collect();
+        let pits = Mask::from_fn(w, h, |x, y| label[y * w + x] != u32::MAX && is_pit[label[y * w + x] as usize]).dilate(1);
+        let depth = Image::from_fn(w, h, 1, |x, y, p| p[0] = if pits.get(x, y) && object.get(x, y) { ratio[y * w + x] } else { 1.0 });
+        OwnPits { depth }
+    }
+
+    /// `worn` (RGB, linear light) with the pits back: each pit pixel is at
+    /// most the worn surface around it (its closing) times its depth ratio
+    /// q^(1 + [`OWN_PIT_DEEPENING`] (1 - exp(-k t))), the colour channels
+    /// scaled alike. At t = 0 a pit is as deep as in the photo.
+    pub fn keep(&self, worn: &Image, k: f32, t: f32) -> Image {
+        let (w, c) = (worn.width(), worn.channels());
+        let exponent = 1.0 + OWN_PIT_DEEPENING * (1.0 - (-k * t).exp());
+        let lum = luminance(worn);
+        let surface = closing(&lum, OWN_PIT_REACH);
+        let mut out = worn.clone();
+        out.data_mut().par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
+            for x in 0..w {
+                let q = self.depth.at(x, y, 0);
+                if q >= 1.0 {
+                    continue;
+                }
+                let (now, target) = (lum.at(x, y, 0), surface.at(x, y, 0) * q.powf(exponent));
+                if target < now && now > 1e-6 {
+                    row[x * c..(x + 1) * c].iter_mut().for_each(|v| *v *= target / now);
+                }
+            }
+        });
+        out
+    }
 }
 
 #[cfg(test)]
