@@ -151,6 +151,8 @@ pub fn run(args: Args) -> Result<()> {
     p["fractal_amplitudes"] = json!(prepared.fractal.amplitudes);
     p["masked"] = json!(prepared.masked);
     p["mask_source"] = json!(mask_source);
+    // Plants over the stone, left unweathered (stone::select::plants).
+    p["plant_pixels"] = json!(prepared.plants.data().iter().filter(|&&v| v >= 0.5).count());
     manifest.params = p;
     manifest.metrics.insert("object_pixels".into(), json!(frames.iter().map(|f| f.mask.count()).collect::<Vec<_>>()));
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();

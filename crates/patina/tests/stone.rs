@@ -255,6 +255,47 @@ fn the_stones_own_pits_stay_open_as_the_carving_wears() {
     eprintln!("pits {before:.3} -> {after:.3} of their surroundings, carving kept {carving:.2}");
 }
 
+/// Grass over the stone is not stone: thin green blades across the slab
+/// stay as they are while the carving beside them wears.
+#[test]
+fn grass_over_the_stone_stays_as_it_is() {
+    // Blades: 2 px wide lines leaning from the slab's foot.
+    let blade = |x: usize, y: usize| {
+        let (fx, fy) = (x as f32, y as f32);
+        (0..6).any(|k| {
+            let x0 = 40.0 + 22.0 * k as f32;
+            let lean = if k % 2 == 0 { 0.35 } else { -0.3 };
+            (108.0..136.0).contains(&fy) && (fx - (x0 + lean * (136.0 - fy))).abs() < 1.0
+        })
+    };
+    let clean = photo();
+    let input = Image::from_fn(W, H, 3, |x, y, p| {
+        if blade(x, y) {
+            p.copy_from_slice(&[0.35, 0.55, 0.12]);
+        } else {
+            p.copy_from_slice(clean.pixel(x, y));
+        }
+    });
+    let params = StoneParams { erosion: false, n: 400.0, ..Default::default() };
+    let prep = stone::prepare(&input, Some(&slab()), None, &params).unwrap();
+    let frames = stone::sequence(&prep, &[200.0], 1, None).unwrap();
+    // Blade pixels whose neighbours are blade too (the core).
+    let core: Vec<usize> = (0..W * H)
+        .filter(|&i| slab().bits()[i] && [0, 1, W, W + 1].iter().all(|&d| i + d < W * H && blade((i + d) % W, (i + d) / W)))
+        .collect();
+    let change = core
+        .iter()
+        .map(|&i| (0..3).map(|c| (frames[0].image.data()[3 * i + c] - input.data()[3 * i + c]).abs()).sum::<f32>() / 3.0)
+        .sum::<f32>()
+        / core.len() as f32;
+    let field: Vec<usize> = (0..W * H).filter(|&i| carved(i)).collect();
+    let carving = band_energy(&frames[0].image, &field, 1.5, 6.0) / band_energy(&input, &field, 1.5, 6.0);
+    assert!(core.len() > 60, "only {} blade pixels", core.len());
+    assert!(carving < 0.75, "the carving kept {carving:.2}: it must wear for the test to mean anything");
+    assert!(change < 0.01, "the blades changed by {change:.3} on average");
+    eprintln!("blades changed by {change:.4}, carving kept {carving:.2}");
+}
+
 #[test]
 fn the_form_keeps_its_luminance_histogram() {
     let params = StoneParams { erosion: false, n: 400.0, ..Default::default() };

@@ -143,6 +143,9 @@ pub struct Prepared {
     pub fractal: Fractal,
     /// The photo's own pits, which the wear opens instead of healing.
     pub own_pits: pits::OwnPits,
+    /// Plants over the object ([`select::plants`]), kept as they are in
+    /// every frame: each pixel's share of the photo kept (0 to 1).
+    pub plants: Image,
     pub params: StoneParams,
 }
 
@@ -225,6 +228,8 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
     });
     let borrowing = update::Borrowing::new(&tendency, &grain, &mask, (&patches, &offsets), scale);
     let own_pits = pits::OwnPits::find(&linear, &tight);
+    let plants = crate::image::filter::gaussian_blur(&select::plants(&rgb, &tight).dilate(1).to_image(), PLANT_EDGE_SIGMA)
+        .map(|v| v.clamp(0.0, 1.0));
     Ok(Prepared {
         linear,
         original: rgb,
@@ -240,6 +245,7 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         borrowing,
         fractal,
         own_pits,
+        plants,
         params: params.clone(),
     })
 }
@@ -261,6 +267,9 @@ fn sources(tight: &Mask, scale: f32) -> Mask {
         tight.clone()
     }
 }
+
+/// Blur (px) of the plants' mask: their outline is anti-aliased.
+const PLANT_EDGE_SIGMA: f32 = 0.7;
 
 /// Widest band (px) along the outline that is never borrowed from.
 pub const MAX_SOURCE_MARGIN: usize = 24;
@@ -370,6 +379,15 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
                     let stone = if standing { *o } else { encode(weathered.at(x, y, c)) };
                     *o = a * stone + (1.0 - a) * fill;
                 }
+            }
+        }
+        // Plants stay as they are, over standing and eroded stone alike.
+        for idx in set_pixels(&prep.mask) {
+            let keep = prep.plants.data()[idx];
+            if keep > 0.0 {
+                let (x, y) = (idx % w, idx / w);
+                let was = prep.original.pixel(x, y);
+                image.pixel_mut(x, y).iter_mut().zip(was).for_each(|(o, v)| *o += keep * (v - *o));
             }
         }
         frames.push(Frame { t, image, mask: object, contrast });

@@ -92,6 +92,40 @@ pub fn auto_mask(photo: &Image) -> Mask {
     found
 }
 
+/// Plants over the stone (grass blades in front of a gravestone's base,
+/// moss): pixels of `object` whose colour lies green-yellow of the stone's
+/// (the object's median a, b in Lab): at least [`PLANT_CHROMA`] away, at
+/// least 3 units greener (lower a) and 2 yellower (higher b); then, as in
+/// Canny's hysteresis, pixels within 2 px of those at half the margins (a
+/// blade's shadowed side). `photo` is sRGB-encoded RGB. Not in the paper;
+/// the weathering leaves them as they are, since grass is not stone (a
+/// blind review named the slate's grass worn with it). Blue-grey inlays and
+/// beige grime are off that direction, so they are not taken.
+pub fn plants(photo: &Image, object: &Mask) -> Mask {
+    let (w, h) = object.size();
+    let lab = to_lab(&photo.select_channels(0..3));
+    let median = |c: usize| {
+        let mut v: Vec<f32> = (0..w * h).filter(|&i| object.bits()[i]).map(|i| lab.data()[3 * i + c]).collect();
+        let mid = v.len() / 2;
+        if v.is_empty() {
+            0.0
+        } else {
+            *v.select_nth_unstable_by(mid, f32::total_cmp).1
+        }
+    };
+    let (a0, b0) = (median(1), median(2));
+    let shifted = |x: usize, y: usize, share: f32| {
+        let (da, db) = (lab.at(x, y, 1) - a0, lab.at(x, y, 2) - b0);
+        object.get(x, y) && da.hypot(db) > share * PLANT_CHROMA && da < -3.0 * share && db > 2.0 * share
+    };
+    let strong = Mask::from_fn(w, h, |x, y| shifted(x, y, 1.0)).dilate(2);
+    Mask::from_fn(w, h, |x, y| strong.get(x, y) && shifted(x, y, 0.5))
+}
+
+/// Lab distance from the stone's median colour beyond which a green-yellow
+/// pixel is a plant ([`plants`]).
+pub const PLANT_CHROMA: f32 = 8.0;
+
 /// Lightness counts half as much as the colour axes: shading varies L over
 /// one stone far more than its hue.
 const L_WEIGHT: f32 = 0.5;
@@ -183,6 +217,26 @@ fn kmeans(features: &[[f32; 4]], seed: u64) -> Vec<[f32; 4]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn plants_are_green_yellow_of_the_stone_and_grime_and_inlays_are_not() {
+        // Grey stone (sRGB 0.55) with four 6 px squares: a grass green, a
+        // shadowed darker green, beige grime and a blue-grey metal inlay.
+        let colour = |x: usize| match x / 10 {
+            1 => [0.35, 0.55, 0.12],
+            3 => [0.2, 0.3, 0.1],
+            5 => [0.62, 0.55, 0.42],
+            7 => [0.38, 0.44, 0.5],
+            _ => [0.55, 0.55, 0.54],
+        };
+        let photo = Image::from_fn(90, 20, 3, |x, y, p| {
+            let c = if (7..13).contains(&y) && x % 10 >= 2 && x % 10 < 8 { colour(x) } else { colour(0) };
+            p.copy_from_slice(&c)
+        });
+        let found = plants(&photo, &Mask::filled(90, 20, true));
+        assert!(found.get(15, 10) && found.get(35, 10), "the greens are plants");
+        assert!(!found.get(55, 10) && !found.get(75, 10) && !found.get(45, 3), "grime, the inlay and the stone are not");
+    }
     use crate::samples::value_noise;
 
     #[test]
