@@ -97,7 +97,7 @@ pub fn auto_mask(photo: &Image) -> Mask {
 /// (the object's median a, b in Lab): at least [`PLANT_CHROMA`] away, at
 /// least 3 units greener (lower a) and 2 yellower (higher b); then, as in
 /// Canny's hysteresis, pixels within 2 px of those at half the margins (a
-/// blade's shadowed side). `photo` is sRGB-encoded RGB. Not in the paper;
+/// blade's shadowed side); none within [`PLANT_MARGIN`] px of the outline. `photo` is sRGB-encoded RGB. Not in the paper;
 /// the weathering leaves them as they are, since grass is not stone (a
 /// blind review named the slate's grass worn with it). Blue-grey inlays and
 /// beige grime are off that direction, so they are not taken.
@@ -114,13 +114,19 @@ pub fn plants(photo: &Image, object: &Mask) -> Mask {
         }
     };
     let (a0, b0) = (median(1), median(2));
+    let inner = object.erode(PLANT_MARGIN);
     let shifted = |x: usize, y: usize, share: f32| {
         let (da, db) = (lab.at(x, y, 1) - a0, lab.at(x, y, 2) - b0);
-        object.get(x, y) && da.hypot(db) > share * PLANT_CHROMA && da < -3.0 * share && db > 2.0 * share
+        inner.get(x, y) && da.hypot(db) > share * PLANT_CHROMA && da < -3.0 * share && db > 2.0 * share
     };
     let strong = Mask::from_fn(w, h, |x, y| shifted(x, y, 1.0)).dilate(2);
     Mask::from_fn(w, h, |x, y| strong.get(x, y) && shifted(x, y, 0.5))
 }
+
+/// Plants are looked for this many px inside the object's outline: the
+/// outline's pixels are part background, and a green lawn behind mixed into
+/// them would keep the old outline as a ghost once the stone erodes.
+pub const PLANT_MARGIN: usize = 3;
 
 /// Lab distance from the stone's median colour beyond which a green-yellow
 /// pixel is a plant ([`plants`]).
