@@ -432,9 +432,9 @@ fn keep_colour(worn: &Image, linear: &Image, lit: &Image) -> Image {
 
 /// Lift (new over old luminance) up to which the wear keeps a pixel's own
 /// tint whole ([`keep_colour`]).
-const LIFT_KEEPS_TINT: f32 = 1.5;
+const LIFT_KEEPS_TINT: f32 = 1.25;
 /// Lift from which a pixel takes the lit stone's tint whole.
-const MAX_SHADING_GAIN: f32 = 4.0;
+const MAX_SHADING_GAIN: f32 = 3.0;
 
 /// The chromaticity of the lit stone around each pixel of `object`:
 /// linear RGB over luminance, both summed over a Gaussian of `sigma` px on
