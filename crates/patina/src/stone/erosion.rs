@@ -12,6 +12,10 @@ use rayon::prelude::*;
 /// octaves (down to 2 px) break it further, so the bites vary in size
 /// instead of lining up as a regular scallop (one 10 px scale did).
 const CHIP: f32 = 16.0;
+/// Size (px) of the pieces the stone breaks off in ([`Erosion::new`]).
+const CHIP_CELL: f32 = 12.0;
+/// Share of the durability set per piece rather than by the noise.
+const CHIP_CELL_SHARE: f32 = 0.6;
 /// Octaves of the durability noise.
 const CHIP_OCTAVES: usize = 4;
 /// Half side of the exposure window (7 x 7).
@@ -48,14 +52,21 @@ impl Erosion {
     /// from a fractal noise at [`CHIP`] px stretched twofold, so soft
     /// pockets go fast and hard lumps stand: the stone breaks in chips
     /// rather than eroding as a smooth offset curve (0.6 to 1.4, unstretched,
-    /// read as a smooth offset).
+    /// read as a smooth offset). [`CHIP_CELL_SHARE`] of it is one value per
+    /// cell of a [`CHIP_CELL`] px Voronoi tiling, so a soft piece goes whole
+    /// and leaves an angular, straight-sided bite: the noise alone bit
+    /// round scallops of much the same size, which a blind review called
+    /// procedural.
     pub fn new(linear: &Image, object: &Mask, bleed: f32, seed: u64) -> Self {
         let (w, h) = object.size();
         let durability = (0..w * h)
             .map(|i| {
-                let n = fractal_noise(seed ^ 0xd0_0b1e, (i % w) as f32, (i / w) as f32, CHIP, CHIP_OCTAVES);
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                let n = fractal_noise(seed ^ 0xd0_0b1e, x, y, CHIP, CHIP_OCTAVES);
                 // Fractal noise gathers near 0.5: stretched, soft and hard stone alternate.
-                0.45 + 1.3 * ((n - 0.5) * 2.0 + 0.5).clamp(0.0, 1.0)
+                let soft = ((n - 0.5) * 2.0 + 0.5).clamp(0.0, 1.0);
+                let piece = crate::image::noise::Layer::new(seed ^ 0xc41b, 0).worley(x, y, CHIP_CELL).id;
+                0.45 + 1.3 * (CHIP_CELL_SHARE * piece + (1.0 - CHIP_CELL_SHARE) * soft)
             })
             .collect();
         let room = room_behind(object);
