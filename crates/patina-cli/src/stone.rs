@@ -118,8 +118,13 @@ pub fn run(args: Args) -> Result<()> {
 
     // An automatic mask's outline is cut on the photo's own edges, so it
     // erodes like a hand mask; the weathering fades in over a couple of
-    // pixels from it, where the cut may be a pixel off.
-    let params = if mask_source == "auto" { StoneParams { feather: stone::select::AUTO_FEATHER, ..params } } else { params };
+    // pixels from it, where the cut may be a pixel off, and it is dilated
+    // further than a hand mask to take in the photo's soft outline.
+    let params = if mask_source == "auto" {
+        StoneParams { feather: stone::select::AUTO_FEATHER, mask_dilation: stone::select::AUTO_DILATION, ..params }
+    } else {
+        params
+    };
     let prepared = stone::prepare(&photo, mask.as_ref(), sample.as_ref(), &params)?;
     manifest.timings_ms.insert("prepare".into(), clock.lap());
     let frames = with_bar("stone", |report| stone::sequence(&prepared, &args.times, args.seed, Some(report)))?;

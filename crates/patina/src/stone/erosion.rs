@@ -308,8 +308,58 @@ pub fn synthesize_background(image: &Image, background: &Mask, hole: &Mask, seed
             }
         }
     }
-    Ok(out)
+    Ok(match_borders(&out, background, hole))
 }
+
+/// The fill with its colour matched to the background along their border:
+/// the local mean of the background within [`BORDER_BAND`] px of the hole
+/// minus that of the fill within as many px of the background (each a
+/// Gaussian of [`BORDER_SIGMA`], normalised over its band) is added to the
+/// fill, fading out over [`BORDER_SIGMA`] px into it. The patches match
+/// texture, not the level of the light just beyond them: a slate's revealed
+/// sky showed a step one patch darker than the sky above (a blind review
+/// read it as a ghost of the old top edge). A simplification of Poisson
+/// blending: only the border's mean offset, not its every gradient.
+fn match_borders(filled: &Image, background: &Mask, hole: &Mask) -> Image {
+    let (w, h, c) = (filled.width(), filled.height(), filled.channels());
+    let near_hole = hole.dilate(BORDER_BAND);
+    let near_background = background.dilate(BORDER_BAND);
+    let outer = Mask::from_fn(w, h, |x, y| background.get(x, y) && !hole.get(x, y) && near_hole.get(x, y));
+    let inner = Mask::from_fn(w, h, |x, y| hole.get(x, y) && near_background.get(x, y));
+    if outer.count() == 0 || inner.count() == 0 {
+        return filled.clone();
+    }
+    let local_mean = |band: &Mask| {
+        let weight = crate::image::filter::gaussian_blur(&band.to_image(), BORDER_SIGMA);
+        let masked = Image::from_fn(w, h, c, |x, y, p| {
+            let on = if band.get(x, y) { 1.0 } else { 0.0 };
+            p.iter_mut().zip(filled.pixel(x, y)).for_each(|(o, v)| *o = v * on)
+        });
+        (crate::image::filter::gaussian_blur(&masked, BORDER_SIGMA), weight)
+    };
+    let ((outside, wo), (inside, wi)) = (local_mean(&outer), local_mean(&inner));
+    let depth = Mask::from_fn(w, h, |x, y| !background.get(x, y) || hole.get(x, y)).distance_inside();
+    let mut out = filled.clone();
+    for idx in set_pixels(hole) {
+        let (x, y) = (idx % w, idx / w);
+        let (a, b) = (wo.data()[idx], wi.data()[idx]);
+        if a < 1e-3 || b < 1e-3 {
+            continue;
+        }
+        let fade = (-depth[idx] / BORDER_SIGMA).exp();
+        for ch in 0..c {
+            let offset = outside.at(x, y, ch) / a - inside.at(x, y, ch) / b;
+            out.pixel_mut(x, y)[ch] += fade * offset;
+        }
+    }
+    out
+}
+
+/// Width (px) of the bands either side of the fill's border whose colours
+/// are matched ([`match_borders`]).
+const BORDER_BAND: usize = 3;
+/// Reach (px) of the border's colour match, along and into the fill.
+const BORDER_SIGMA: f32 = 6.0;
 
 /// For every pixel, the index of the nearest set pixel of `set` (u32::MAX
 /// when none is set): nearest points propagated over 8-neighbours in a
@@ -416,6 +466,30 @@ mod tests {
         let seams = (step(FILL_CELL - 1) + step(2 * FILL_CELL - 1)) / 2.0;
         let typical = (0..w - 1).map(step).sum::<f32>() / (w - 1) as f32;
         assert!(seams < 2.5 * typical, "the step across a cell border is {seams:.3}, elsewhere {typical:.3}");
+    }
+
+    #[test]
+    fn the_fill_meets_the_background_without_a_step() {
+        // Background 0.6 above row 50; a fill of 0.4 in rows 50 to 61 (the
+        // level of sources farther out); the stone below at 0.8.
+        let (w, h) = (80, 90);
+        let filled = Image::from_fn(w, h, 1, |_, y, p| {
+            p[0] = if y < 50 {
+                0.6
+            } else if y < 62 {
+                0.4
+            } else {
+                0.8
+            }
+        });
+        let background = Mask::from_fn(w, h, |_, y| y < 50);
+        let hole = Mask::from_fn(w, h, |_, y| (50..62).contains(&y));
+        let matched = match_borders(&filled, &background, &hole);
+        let step = (matched.at(40, 50, 0) - matched.at(40, 49, 0)).abs();
+        assert!(step < 0.05, "a step of {step:.3} across the border (0.2 unmatched)");
+        assert_eq!(matched.at(40, 49, 0), 0.6, "the background is kept");
+        assert_eq!(matched.at(40, 70, 0), 0.8, "the stone is kept");
+        assert!(matched.at(40, 61, 0) < matched.at(40, 50, 0), "the match fades into the fill");
     }
 
     #[test]

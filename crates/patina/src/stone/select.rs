@@ -28,6 +28,13 @@ use crate::rng::Rng;
 /// pixel off.
 pub const AUTO_FEATHER: f32 = 2.0;
 
+/// Pixels an automatic mask is dilated by (`StoneParams::mask_dilation`;
+/// a hand mask's default is 2): the cut follows the photo's edges, and the
+/// soft, dark outline around them (defocus, JPEG ringing) lay beyond 2 px
+/// on a slate's top edge, where it stayed as a ghost line over the sky once
+/// the stone behind it eroded.
+pub const AUTO_DILATION: usize = 4;
+
 /// Longer side of the working copy the clusters are found on.
 const WORK_SIDE: usize = 192;
 /// Colour/texture clusters.
