@@ -7,7 +7,10 @@
 //! sample ([`roughen`]), silhouette erosion with the background behind
 //! it synthesized by the engine ([`erosion`]) and a final luminance
 //! histogram match to the original. The wear changes shading, not colour
-//! (`keep_colour`). Work is in linear light
+//! (`keep_colour`), except where it fills a deep shadow in, which takes
+//! the lit stone's colour. The photo's own pits stay open
+//! ([`pits::OwnPits`]) and plants over the stone stay as they are
+//! ([`select::plants`]). Work is in linear light
 //! (gamma 2.2, as the paper), frames are returned in sRGB-like gamma 2.2.
 //!
 //! ```no_run
