@@ -11,11 +11,11 @@ use rayon::prelude::*;
 /// Size (px) of the largest chips the outline breaks into; three finer
 /// octaves (down to 2 px) break it further, so the bites vary in size
 /// instead of lining up as a regular scallop (one 10 px scale did).
-const CHIP: f32 = 16.0;
+pub const CHIP: f32 = 16.0;
 /// Size (px) of the pieces the stone breaks off in ([`Erosion::new`]).
-const CHIP_CELL: f32 = 12.0;
+pub const CHIP_CELL: f32 = 12.0;
 /// Share of the durability set per piece rather than by the noise.
-const CHIP_CELL_SHARE: f32 = 0.6;
+pub const CHIP_CELL_SHARE: f32 = 0.6;
 /// Octaves of the durability noise.
 const CHIP_OCTAVES: usize = 4;
 /// Half side of the exposure window (7 x 7).
