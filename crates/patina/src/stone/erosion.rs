@@ -12,12 +12,8 @@ use rayon::prelude::*;
 /// octaves (down to 2 px) break it further, so the bites vary in size
 /// instead of lining up as a regular scallop (one 10 px scale did).
 pub const CHIP: f32 = 16.0;
-/// Size (px) of the pieces the stone breaks off in ([`Erosion::new`]):
-/// 12 px pieces bit a regular sawtooth of about 15 px into a granite
-/// slab's side (a blind review).
-pub const CHIP_CELL: f32 = 20.0;
-/// Displacement (px) of the pieces' walls.
-pub const CHIP_WARP: f32 = 6.0;
+/// Size (px) of the pieces the stone breaks off in ([`Erosion::new`]).
+pub const CHIP_CELL: f32 = 12.0;
 /// Share of the durability set per piece rather than by the noise.
 pub const CHIP_CELL_SHARE: f32 = 0.6;
 /// Octaves of the durability noise.
@@ -57,27 +53,19 @@ impl Erosion {
     /// pockets go fast and hard lumps stand: the stone breaks in chips
     /// rather than eroding as a smooth offset curve (0.6 to 1.4, unstretched,
     /// read as a smooth offset). [`CHIP_CELL_SHARE`] of it is one value per
-    /// cell of a [`CHIP_CELL`] px Voronoi tiling, its walls displaced by up
-    /// to about [`CHIP_WARP`] px, so a soft piece goes whole
+    /// cell of a [`CHIP_CELL`] px Voronoi tiling, so a soft piece goes whole
     /// and leaves an angular, straight-sided bite: the noise alone bit
     /// round scallops of much the same size, which a blind review called
     /// procedural.
     pub fn new(linear: &Image, object: &Mask, bleed: f32, seed: u64) -> Self {
         let (w, h) = object.size();
-        let (warp, pieces) = (crate::image::noise::Layer::new(seed ^ 0x3a7, 1), crate::image::noise::Layer::new(seed ^ 0xc41b, 0));
         let durability = (0..w * h)
             .map(|i| {
                 let (x, y) = ((i % w) as f32, (i / w) as f32);
                 let n = fractal_noise(seed ^ 0xd0_0b1e, x, y, CHIP, CHIP_OCTAVES);
                 // Fractal noise gathers near 0.5: stretched, soft and hard stone alternate.
                 let soft = ((n - 0.5) * 2.0 + 0.5).clamp(0.0, 1.0);
-                // Pieces of warped Voronoi cells: straight cell walls
-                // bent a little, so no two bites have the same outline.
-                let (u, v) = (
-                    x + CHIP_WARP * warp.fbm(x, y, 2.0 * CHIP_CELL, 2, 0.5),
-                    y + CHIP_WARP * warp.fbm(x + 97.0, y - 41.0, 2.0 * CHIP_CELL, 2, 0.5),
-                );
-                let piece = pieces.worley(u, v, CHIP_CELL).id;
+                let piece = crate::image::noise::Layer::new(seed ^ 0xc41b, 0).worley(x, y, CHIP_CELL).id;
                 0.45 + 1.3 * (CHIP_CELL_SHARE * piece + (1.0 - CHIP_CELL_SHARE) * soft)
             })
             .collect();
