@@ -166,32 +166,32 @@ impl OwnPits {
                 *p = (p.0 + 1, p.1.min(x), p.2.min(y), p.3.max(x), p.4.max(y));
             }
         }
-        // Per piece: the pixels of the ring 1-2 px around it, and how many
-        // of them are plain surface.
-        let near = Mask::from_fn(w, h, |x, y| dark[y * w + x]).dilate(2);
-        let mut ring = vec![(0usize, 0usize); count];
-        let labels = &label;
-        for i in (0..w * h).filter(|&i| near.bits()[i] && !dark[i]) {
-            let (x, y) = (i % w, i / w);
-            let (x0, y0, x1, y1) = (x.saturating_sub(2), y.saturating_sub(2), (x + 2).min(w - 1), (y + 2).min(h - 1));
-            let mut seen: [u32; 4] = [u32::MAX; 4];
-            for l in (y0..=y1).flat_map(|yy| (x0..=x1).map(move |xx| labels[yy * w + xx])).filter(|&l| l != u32::MAX) {
-                if seen.contains(&l) {
-                    continue;
+        // Whether plain surface encloses piece `l` (box `x0..=x1`,
+        // `y0..=y1`): the share of plain pixels among the ring of pixels
+        // not dark within 2 px (a 5 x 5 window) of it.
+        let enclosed = |l: u32, (x0, y0, x1, y1): (usize, usize, usize, usize)| {
+            let (mut around, mut plain) = (0usize, 0usize);
+            for y in y0.saturating_sub(2)..=(y1 + 2).min(h - 1) {
+                for x in x0.saturating_sub(2)..=(x1 + 2).min(w - 1) {
+                    let i = y * w + x;
+                    let touches = || {
+                        (y.saturating_sub(2)..=(y + 2).min(h - 1))
+                            .any(|yy| (x.saturating_sub(2)..=(x + 2).min(w - 1)).any(|xx| label[yy * w + xx] == l))
+                    };
+                    if !dark[i] && touches() {
+                        around += 1;
+                        plain += usize::from(ratio[i] >= OWN_PIT_RIM);
+                    }
                 }
-                if let Some(slot) = seen.iter_mut().find(|s| **s == u32::MAX) {
-                    *slot = l;
-                }
-                let r = &mut ring[l as usize];
-                *r = (r.0 + 1, r.1 + usize::from(ratio[i] >= OWN_PIT_RIM));
             }
-        }
+            plain as f32 >= OWN_PIT_ENCLOSED * around as f32
+        };
         let is_pit: Vec<bool> = pieces
             .iter()
-            .zip(&ring)
-            .map(|(&(n, x0, y0, x1, y1), &(around, plain))| {
+            .enumerate()
+            .map(|(l, &(n, x0, y0, x1, y1))| {
                 let (a, b) = (x1 - x0 + 1, y1 - y0 + 1);
-                n <= OWN_PIT_AREA && a.max(b) <= OWN_PIT_ELONGATION * a.min(b) && plain as f32 >= OWN_PIT_ENCLOSED * around as f32
+                n <= OWN_PIT_AREA && a.max(b) <= OWN_PIT_ELONGATION * a.min(b) && enclosed(l as u32, (x0, y0, x1, y1))
             })
             .collect();
         let pits = Mask::from_fn(w, h, |x, y| label[y * w + x] != u32::MAX && is_pit[label[y * w + x] as usize]).dilate(1);

@@ -104,23 +104,16 @@ pub fn auto_mask(photo: &Image) -> Mask {
 /// (the object's median a, b in Lab): at least [`PLANT_CHROMA`] away, at
 /// least 3 units greener (lower a) and 2 yellower (higher b); then, as in
 /// Canny's hysteresis, pixels within 2 px of those at half the margins (a
-/// blade's shadowed side); none within [`PLANT_MARGIN`] px of the outline. `photo` is sRGB-encoded RGB. Not in the paper;
-/// the weathering leaves them as they are, since grass is not stone (a
-/// blind review named the slate's grass worn with it). Blue-grey inlays and
-/// beige grime are off that direction, so they are not taken.
+/// blade's shadowed side); none within [`PLANT_MARGIN`] px of the outline.
+/// `photo` is sRGB-encoded RGB. Not in the paper; the weathering leaves
+/// them as they are, since grass is not stone (a blind review named the
+/// slate's grass worn with it). Blue-grey inlays and beige grime are off
+/// that direction, so they are not taken.
 pub fn plants(photo: &Image, object: &Mask) -> Mask {
     let (w, h) = object.size();
     let lab = to_lab(&photo.select_channels(0..3));
-    let median = |c: usize| {
-        let mut v: Vec<f32> = (0..w * h).filter(|&i| object.bits()[i]).map(|i| lab.data()[3 * i + c]).collect();
-        let mid = v.len() / 2;
-        if v.is_empty() {
-            0.0
-        } else {
-            *v.select_nth_unstable_by(mid, f32::total_cmp).1
-        }
-    };
-    let (a0, b0) = (median(1), median(2));
+    let channel = |c: usize| (0..w * h).filter(|&i| object.bits()[i]).map(|i| lab.data()[3 * i + c]).collect();
+    let (a0, b0) = (super::update::median(channel(1)), super::update::median(channel(2)));
     let inner = object.erode(PLANT_MARGIN);
     let shifted = |x: usize, y: usize, share: f32| {
         let (da, db) = (lab.at(x, y, 1) - a0, lab.at(x, y, 2) - b0);

@@ -383,7 +383,7 @@ impl GrainLevels {
 
 /// The upper median of `values` (the element at index len / 2 in sorted
 /// order), 0 when there are none.
-fn median(mut values: Vec<f32>) -> f32 {
+pub(crate) fn median(mut values: Vec<f32>) -> f32 {
     let mid = values.len() / 2;
     if values.is_empty() {
         0.0
