@@ -66,6 +66,9 @@ pub struct Args {
     /// Rare-feature penalty: a block holding a distinctive event or feature (no near twin elsewhere in the input) costs more for every time it was already pasted, in proportion to how distinctive it is (0 = off, the paper; off by default: on a rust test sequence it made calm steel repeat more).
     #[arg(long, default_value_t = ttf::RARITY, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub rarity: f32,
+    /// Material-share control: the input's time columns are split into material families (k-means of their colour over time), and a block's cost grows with how far the materials it holds are over their share of the input in what was pasted so far, and shrinks with how far they are under it (0 = off, the paper); without it the reuse penalty starves a material that fills a small part of the input (copper's patina came out at half its share).
+    #[arg(long, default_value_t = ttf::FAMILIES, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    pub families: f32,
     /// Sum the block cost over frames as they are (the paper's eq. 3). By default each frame is weighted by the inverse of its fine-detail contrast, so smooth early frames get seams as clean as busy late ones.
     #[arg(long)]
     pub no_balance: bool,
@@ -229,6 +232,7 @@ pub fn run(args: Args) -> Result<()> {
             blend: !args.no_blend,
             reuse: args.reuse,
             rarity: args.rarity,
+            families: args.families,
             ..TtfParams::default().quilt
         },
         jitter: args.jitter,

@@ -13,17 +13,23 @@
 //!   same time, at frames 1/4, 1/2, 3/4 and the last in (the mix of
 //!   materials kept over time: more rust or leaves than the input's shows
 //!   as a lower or higher ratio);
+//! - drift: how far the output's mix of materials is from the input
+//!   frame's at the same time ([`patina::metrics::material_drift`], 0 = the
+//!   same mix; against the input's detail layer when the lighting was
+//!   split), at the middle and the last frame: a material the quilt
+//!   starves (copper's patina) or spreads shows here;
 //! - time and frames.
 //!
 //!     cargo run --release -p patina --example ttf_quality [OUT_DIR]
 //!
 //! With OUT_DIR, the middle frame of every run is written there as
 //! NAME_SETTING.png (for contact sheets). `TTF_FRAMES` caps the frames per
-//! sequence (default 40), `TTF_ONLY` runs one sequence.
+//! sequence (default 40), `TTF_ONLY` runs one sequence, `TTF_SEED` sets
+//! the seed (default 1).
 
 use patina::image::io::{save_png, BitDepth};
 use patina::image::sequence::load_sequence;
-use patina::metrics::{flicker, grid_peak, repeated_share, seam_visibility};
+use patina::metrics::{flicker, grid_peak, material_drift, repeated_share, seam_visibility};
 use patina::synth::QuiltParams;
 use patina::ttf::{input_nonstationarity, synthesize, SequenceLighting, TtfParams};
 use patina::Image;
@@ -42,6 +48,7 @@ fn main() {
     }
     let cap: usize = std::env::var("TTF_FRAMES").ok().and_then(|v| v.parse().ok()).unwrap_or(40);
     let only = std::env::var("TTF_ONLY").ok();
+    let seed: u64 = std::env::var("TTF_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(1);
     let mut sequences: Vec<(String, Vec<Image>)> = Vec::new();
     for name in ["copper_patinating", "clay_solidifying", "growing_sprouts", "rusting_steel"] {
         if only.as_deref().is_some_and(|o| o != name) {
@@ -67,6 +74,12 @@ fn main() {
         settings.push(("no-balance".into(), TtfParams { balance: false, ..d.clone() }));
         settings.push(("families".into(), TtfParams { quilt: QuiltParams { families: 1.0, ..d.quilt.clone() }, ..d.clone() }));
     }
+    // TTF_FAM="0,4" adds default settings with those material-share weights.
+    for f in std::env::var("TTF_FAM").unwrap_or_default().split(',').filter(|s| !s.is_empty()) {
+        let d = TtfParams::default();
+        let v: f32 = f.parse().unwrap();
+        settings.push((format!("fam{f}"), TtfParams { quilt: QuiltParams { families: v, ..d.quilt.clone() }, ..d.clone() }));
+    }
     // TTF_TRY="BLOCK,OVERLAP;..." adds default settings with those sizes.
     for spec in std::env::var("TTF_TRY").unwrap_or_default().split(';').filter(|s| !s.is_empty()) {
         let v: Vec<usize> = spec.split(',').map(|x| x.parse().expect("BLOCK,OVERLAP")).collect();
@@ -76,19 +89,19 @@ fn main() {
         settings.push((format!("b{}o{}", v[0], v[1]), p));
     }
     println!(
-        "| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | seams first / f2 / 10% / mid | brightness 1/4 1/2 3/4 last | lighting | time s |"
+        "| sequence | setting | grid mid | grid last | repeats mid | flicker ratio | seams first / f2 / 10% / mid | brightness 1/4 1/2 3/4 last | drift mid / last | lighting | time s |"
     );
-    println!("|---|---|---:|---:|---:|---:|---|---|---|---:|");
+    println!("|---|---|---:|---:|---:|---:|---|---|---|---|---:|");
     for (name, frames) in &sequences {
         let (w, h) = frames[0].size();
         let n = frames.len();
         let (g_mid, g_last) = (grid_peak(&frames[n / 2]), grid_peak(&frames[n - 1]));
         let f_in = flicker(frames);
         let rep_in = repeated_share(&frames[n / 2], 9, 16, 1).expect("repeats");
-        println!("| {name} {w}x{h}x{n} | input | 1 | 1 | {rep_in:.3} | 1 | {:.3} | 1 | |", input_nonstationarity(frames).expect("frames"));
+        println!("| {name} {w}x{h}x{n} | input | 1 | 1 | {rep_in:.3} | 1 | {:.3} | 1 | 0 0 | |", input_nonstationarity(frames).expect("frames"));
         for (label, params) in &settings {
             let start = Instant::now();
-            let out = synthesize(frames, (2 * w, 2 * h), params, None, 1, None).expect("synthesize");
+            let out = synthesize(frames, (2 * w, 2 * h), params, None, seed, None).expect("synthesize");
             let secs = start.elapsed().as_secs_f64();
             let o = &out.frames;
             let rep = repeated_share(&o[n / 2], 9, 16, 1).expect("repeats");
@@ -109,13 +122,19 @@ fn main() {
             };
             let brightness: Vec<String> =
                 [n / 4, n / 2, 3 * n / 4, n - 1].iter().map(|&t| format!("{:.2}", lum(&o[t]) / lum(&frames[t]))).collect();
+            // A split output is lit flat: its mix is compared with the
+            // input's detail layer, not with the frames under their light.
+            let detail = out.lighting.map(|_| patina::synth::lighting::separate_sequence(frames).expect("separate").1);
+            let drift = |t: usize| material_drift(&o[t], &detail.as_deref().unwrap_or(frames)[t], 1).expect("drift");
             println!(
-                "| {name} | {label} | {:.2} | {:.2} | {rep:.3} | {:.2} | {} | {} | {} | {secs:.1} |",
+                "| {name} | {label} | {:.2} | {:.2} | {rep:.3} | {:.2} | {} | {} | {:.3} {:.3} | {} | {secs:.1} |",
                 grid_peak(&o[n / 2]) / g_mid,
                 grid_peak(&o[n - 1]) / g_last,
                 flicker(o) / f_in,
                 seams.join(" / "),
                 brightness.join(" "),
+                drift(n / 2),
+                drift(n - 1),
                 if out.lighting.is_some() { "split" } else { "kept" },
             );
             if let Some(d) = &out_dir {

@@ -32,6 +32,7 @@ pub struct Synthesis<'a> {
     pub(crate) progress: Option<Progress<'a>>,
     pub(crate) relight: super::lighting::Relight<'a>,
     pub(crate) tileable: bool,
+    pub(crate) materials: Option<&'a Image>,
 }
 
 impl<'a> Synthesis<'a> {
@@ -51,6 +52,7 @@ impl<'a> Synthesis<'a> {
             progress: None,
             relight: super::lighting::Relight::Keep,
             tileable: false,
+            materials: None,
         }
     }
     /// Lighting-aware synthesis ([`super::lighting`]): separate the
@@ -92,6 +94,16 @@ impl<'a> Synthesis<'a> {
     /// stretched lighting, which does not.
     pub fn tileable(mut self, tileable: bool) -> Self {
         self.tileable = tileable;
+        self
+    }
+    /// The image quilting's material families ([`super::QuiltParams::families`])
+    /// are clustered on, the source's size, its first three channels
+    /// weighed equally (default: the source, as the metric weighs it).
+    /// Time-lapse quilting compares time columns whose first channels are
+    /// one colour's temporal coefficients; their materials are those of
+    /// the frames' temporal mean colour.
+    pub fn materials(mut self, image: &'a Image) -> Self {
+        self.materials = Some(image);
         self
     }
     /// Output size (default: the target guide's, the filled image's, or the source's).

@@ -88,16 +88,21 @@ pub struct QuiltParams {
     /// about once rather than never), and common material is shared as
     /// before. 0 turns it off. Not applied to texture transfer.
     pub rarity: f32,
-    /// Material-share penalty (not in the paper): the exemplar's colours
-    /// are split into [`super::families`], and a candidate's cost is also
-    /// multiplied by 1 + families x the sum over families of its share of
-    /// that family x how far the family's share of the blocks pasted so
-    /// far exceeds its share of the exemplar (as a ratio, minus 1, at least
-    /// 0). A material that only touches the rest along a short edge (a
-    /// corner of teal paint) then stops spreading once the output holds
-    /// its share of it. While a family is over its share, candidates of
-    /// common material up to [`PENALIZED_SLACK`] x the best cost also
-    /// compete. Not applied to texture transfer.
+    /// Material-share control (not in the paper): the exemplar's colours
+    /// (or those of [`super::Synthesis::materials`]) are split into
+    /// [`super::families`], and a candidate's cost is also multiplied by
+    /// 1 + families x e, e the sum over families of its share of that
+    /// family x how far the family's share of the blocks pasted so far
+    /// exceeds its share of the exemplar (as a ratio, minus 1, beyond
+    /// [`FAMILY_SLACK`]). When e is negative (the block is mostly of
+    /// materials under their share by more than [`UNDER_SLACK`]), the cost
+    /// is divided by 1 - families x e instead. A material that only
+    /// touches the rest along a short edge (a corner of teal paint) then
+    /// stops spreading once the output holds its share of it, and one the
+    /// reuse penalty starves (a minority material, whose few source spots
+    /// are soon all used) is favoured again. While a family is off its
+    /// share, candidates of common material up to [`PENALIZED_SLACK`] x
+    /// the best cost also compete. Not applied to texture transfer.
     ///
     /// Off (0) by default: on 12 real exemplars (examples/engine_quality,
     /// seeds 1-3) it brought the material drift from 0.106 to 0.085 (rust
@@ -532,23 +537,27 @@ impl Usage {
             }
         }
     }
-    /// How far each family's share of what was pasted exceeds its share of
-    /// the exemplar, as a ratio, beyond [`FAMILY_SLACK`] (at least 0). The
-    /// pasted shares start from the exemplar's, worth [`FAMILY_PRIOR`]
-    /// blocks, so the first blocks are free to choose.
+    /// How far each family's share of what was pasted is from its share of
+    /// the exemplar, as a ratio, beyond [`FAMILY_SLACK`] either way:
+    /// positive when over-used (ratio - 1 - slack), negative when
+    /// under-used (ratio - 1 + slack), 0 within the slack. The pasted
+    /// shares start from the exemplar's, worth [`FAMILY_PRIOR`] blocks, so
+    /// the first blocks are free to choose.
     fn overuse(&self) -> [f64; FAMILIES] {
         let mut over = [0f64; FAMILIES];
         let prior = FAMILY_PRIOR * (self.block.0 * self.block.1) as f64;
         let total: f64 = self.pasted.iter().sum::<f64>() + prior;
         for (f, o) in over.iter_mut().enumerate().take(self.family_count) {
             let share = (self.pasted[f] + prior * self.target[f]) / total;
-            *o = (share / self.target[f].max(1e-9) - 1.0 - FAMILY_SLACK).max(0.0);
+            let ratio = share / self.target[f].max(1e-9) - 1.0;
+            *o = if ratio > 0.0 { (ratio - FAMILY_SLACK).max(0.0) } else { (ratio + UNDER_SLACK).min(0.0) };
         }
         over
     }
     /// How much a block from (sx, sy) would add to materials already
     /// over-used (`over`, from [`Usage::overuse`]): over the families, its
-    /// share of each x that family's over-use. 0 without families.
+    /// share of each x that family's over-use; negative when it holds
+    /// mostly under-used ones. 0 without families.
     fn excess(&self, sx: usize, sy: usize, over: &[f64; FAMILIES]) -> f32 {
         let k = self.family_count;
         if k == 0 {
@@ -609,6 +618,19 @@ struct Penalty {
 /// 0.09).
 const PENALIZED_SLACK: f32 = 2.0;
 
+/// The material-share part of a candidate's cost factor for its weighted
+/// excess `e` ([`Usage::excess`] x [`QuiltParams::families`]): 1 + e for
+/// a block of over-used materials, 1 / (1 - e) for one of under-used
+/// materials, so a starved material is favoured as an over-used one is
+/// held back.
+fn share_factor(e: f32) -> f32 {
+    if e >= 0.0 {
+        1.0 + e
+    } else {
+        1.0 / (1.0 - e)
+    }
+}
+
 /// The exemplar's material mix counts as this many blocks already pasted
 /// when [`Usage::excess`] compares shares.
 const FAMILY_PRIOR: f64 = 2.0;
@@ -619,7 +641,13 @@ const FAMILY_PRIOR: f64 = 2.0;
 /// tileable 160 x 128 cobble enlargement a quarter of its exemplar (worst
 /// window completeness over self-similarity 0.61 -> 0.85 over seeds 1-7;
 /// back to 0.61 with this slack).
-const FAMILY_SLACK: f64 = 0.25;
+pub const FAMILY_SLACK: f64 = 0.25;
+
+/// A family's share may fall this far under its share of the exemplar
+/// (as a ratio) before [`Usage::overuse`] counts it. Smaller than
+/// [`FAMILY_SLACK`]: a starved minority material is what the bonus is for
+/// (copper_patinating's patina came out at 0.45-0.6 of its share).
+pub const UNDER_SLACK: f64 = 0.1;
 
 /// Added to the twin error before [`QuiltParams::relative`] divides by it
 /// (the median twin error is 1), so that flat material, whose twin error
@@ -965,7 +993,7 @@ impl Pass<'_> {
                 // under-used by design: it takes the worst family's
                 // over-use, so the bound never favours it.
                 let excess = if rare { worst } else { usage.excess(sx, sy, &over) };
-                let material = 1.0 + self.params.families * excess;
+                let material = share_factor(self.params.families * excess);
                 let penalty = (1.0 + self.params.reuse * usage.around(sx, sy) + self.params.rarity * used) * material;
                 Penalty { factor: penalty, bonus: 1.0 + FIRST_USE * self.params.rarity * fresh, material, rare }
             };
@@ -983,7 +1011,7 @@ impl Pass<'_> {
                 }
                 e
             };
-            self.choose(&costs, vw, vh, exact, penalty, self.params.families > 0.0 && worst > 0.0, &mut g)
+            self.choose(&costs, vw, vh, exact, penalty, self.params.families > 0.0 && over.iter().any(|&o| o != 0.0), &mut g)
         };
         let keep = self.seam(canvas, (x, y), (sx, sy), strips);
         Placement { x, y, source_x: sx, source_y: sy, keep }
@@ -1010,7 +1038,7 @@ impl Pass<'_> {
     /// Pick a placement: local minima of `costs` within tolerance of the best
     /// (re-scored exactly, times the reuse `penalty`), never fewer than
     /// `min_candidates`. The minima re-scored are the front runners by
-    /// cost and, when `widen` (some material is over its share), those of
+    /// cost and, when `widen` (some material is off its share), those of
     /// common material (no rare feature) with the lowest cost x material
     /// penalty among those within [`PENALIZED_SLACK`] x the best cost: a
     /// cheap block of an over-used material can then lose to one a little
@@ -1222,7 +1250,18 @@ impl Synthesis<'_> {
         let families = || -> Result<Option<Families>> {
             if params.families > 0.0 && guided.is_none() {
                 let scale = (block.0.min(block.1) as f32 / 8.0).max(2.0);
-                Ok(Some(Families::of(src, &weights, scale, rng::derive(self.seed, &[0xfa31]))?))
+                let seed = rng::derive(self.seed, &[0xfa31]);
+                match self.materials {
+                    Some(m) if m.size() != src.size() => Err(Error::invalid(format!(
+                        "the materials image is {}x{} but the exemplar is {}x{}",
+                        m.width(),
+                        m.height(),
+                        src.width(),
+                        src.height()
+                    ))),
+                    Some(m) => Ok(Some(Families::of(m, &vec![1.0 / m.channels() as f32; m.channels()], scale, seed)?)),
+                    None => Ok(Some(Families::of(src, &weights, scale, seed)?)),
+                }
             } else {
                 Ok(None)
             }
@@ -1300,6 +1339,26 @@ impl Synthesis<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_material_under_its_share_is_favoured_and_one_over_it_held_back() {
+        // Red on the left three quarters, blue on the right quarter; every
+        // block pasted so far came from the red part.
+        let ex = Image::from_fn(128, 32, 3, |x, _, p| p.copy_from_slice(if x < 96 { &[0.8, 0.2, 0.1] } else { &[0.1, 0.2, 0.8] }));
+        let families = Families::of(&ex, &[1.0 / 3.0; 3], 2.0, 1).unwrap();
+        let mut usage = Usage::new(ex.size(), (16, 16), None, Some(&families));
+        let over = usage.overuse();
+        assert!(over.iter().all(|&o| o == 0.0), "nothing pasted yet: {over:?}");
+        for k in 0..12 {
+            usage.add(k * 6, 8);
+        }
+        let over = usage.overuse();
+        let (red, blue) = (usage.excess(10, 8, &over), usage.excess(110, 8, &over));
+        assert!(red > 0.0 && blue < 0.0, "excess of a red block {red}, of a blue one {blue}");
+        assert!(share_factor(blue) < 1.0 && share_factor(red) > 1.0);
+        // Within the slack either way, nothing changes.
+        assert_eq!(share_factor(0.0), 1.0);
+    }
 
     #[test]
     fn a_staggered_layout_covers_the_canvas_in_dependency_order_without_a_lattice() {

@@ -27,7 +27,11 @@
 //!   ([`crate::synth::lighting::steady_exposure`]) and a specular streak
 //!   fixed in the frame ([`crate::synth::highlight`]), which quilting
 //!   would otherwise paste with every block.
-//! - Seams hidden in the gradient domain ([`crate::synth::blend`]) at key
+//! - Material shares kept to the input's ([`FAMILIES`]): a minority
+//!   material the reuse penalty would starve is favoured again.
+//! - Seams hidden in the gradient domain ([`crate::synth::blend`]), their
+//!   brightness steps over whole blocks and their colour steps only near
+//!   the seam ([`CHROMA_REACH`]), at key
 //!   frames every 8 frames (the first, and every frame of a burst of
 //!   change, solved on its own frame), interpolated between, so no seam
 //!   flickers.
@@ -103,6 +107,21 @@ pub const REUSE: f32 = 1.0;
 /// output with copies of the calm steel around them.
 pub const RARITY: f32 = 0.0;
 
+/// Material-share control for time-lapses ([`QuiltParams::families`]),
+/// with the families clustered on the frames' temporal mean colour (the
+/// time columns' first channels are one colour's coefficients). The reuse
+/// penalty starves a material that fills a small part of the input:
+/// copper_patinating's teal patina covers 0.30 of the input's middle frame
+/// and 0.40 of its last, and came out at 0.13 and 0.23 (means over seeds
+/// 1-6; 0.25 and 0.40 without the penalty, whose repeats it is there for).
+/// At 2 they are 0.17 and 0.30 (at 1 0.18 / 0.31, at 4 0.19 / 0.33:
+/// the rest of the gap was the seam blend's, see [`CHROMA_REACH`]); the
+/// material drift of the middle frame ([`crate::metrics::material_drift`],
+/// examples/ttf_quality, seed 1) fell on all four real sequences (copper
+/// 0.28 -> 0.24, clay 0.22 -> 0.19, sprouts 0.22 -> 0.15, steel 0.31 ->
+/// 0.20).
+pub const FAMILIES: f32 = 2.0;
+
 /// Relative overlap costs for time-lapses ([`QuiltParams::relative`]): off
 /// by default. With it on, a flickering capture comes out as a patchwork
 /// of exposures again: in the tests' flashed rusting sequence frame 5's
@@ -144,7 +163,7 @@ impl Default for TtfParams {
         TtfParams {
             rank: 15,
             max_error: None,
-            quilt: QuiltParams { feather: 0, blend: true, reuse: REUSE, rarity: RARITY, relative: RELATIVE, ..QuiltParams::default() },
+            quilt: QuiltParams { feather: 0, blend: true, reuse: REUSE, rarity: RARITY, families: FAMILIES, relative: RELATIVE, ..QuiltParams::default() },
             jitter: None,
             lighting: SequenceLighting::Auto,
             balance: true,
@@ -164,6 +183,7 @@ impl TtfParams {
                 blend: false,
                 reuse: 0.0,
                 rarity: 0.0,
+                families: 0.0,
                 stagger: false,
                 relative: 0.0,
                 ..QuiltParams::default()
@@ -310,7 +330,9 @@ pub fn synthesize_chunk(
         let ((bw, bh), _) = quilt.resolve(features.width(), features.height())?;
         quilt.overlap = Some(((bw / OVERLAP_SHARE).max(2), (bh / OVERLAP_SHARE).max(2)));
     }
+    let materials = crate::image::sequence::temporal_mean(frames)?;
     let quilted = Synthesis::new(&features)
+        .materials(&materials)
         .size(width, height)
         .metric(metric)
         .seed(rng::derive(seed, &[1]))
@@ -387,7 +409,7 @@ pub fn synthesize_chunk(
                     mean.data_mut().iter_mut().zip(render(u).data()).for_each(|(m, v)| *m += k * v);
                     src.data_mut().iter_mut().zip(frames[u.min(n - 1)].data()).for_each(|(m, v)| *m += k * v);
                 }
-                let blended = crate::synth::blend::blend_seams(&mean, &src, &positions, Some(SEAM_OUTLIER));
+                let blended = crate::synth::blend::blend_seams_keeping_chroma(&mean, &src, &positions, Some(SEAM_OUTLIER), CHROMA_REACH);
                 let sigma = DRIFT_BLOCKS * plan.block.0.max(plan.block.1) as f32;
                 let blended = crate::synth::blend::without_drift(&blended, &mean, sigma);
                 (t, blended.data().iter().zip(mean.data()).map(|(b, a)| b - a).collect())
@@ -437,6 +459,17 @@ pub fn synthesize_chunk(
 /// ([`crate::synth::blend::blend_seams`]), so spots growing across a seam
 /// send no changing glow around them while whole-seam tone steps are hidden.
 const SEAM_OUTLIER: f32 = 3.0;
+
+/// Chroma steps at the seams are blended within about this many pixels
+/// ([`crate::synth::blend::blend_seams_keeping_chroma`]); brightness steps
+/// over whole blocks. Blended like brightness, a teal patina block's
+/// colour step to its brown neighbours was spread over it: the teal cover
+/// of copper_patinating's middle frame was 0.17 (seeds 1-6), 0.23 with
+/// plain cuts, and is 0.22 with this (0.21 at 16 px), its frame 25 0.032
+/// -> 0.063 (the input's 0.116), with no block outlines. The vignetted rust
+/// sequence's near-verbatim share (examples/ttf_quality, seeds 1-4) rose
+/// from 0.104 to 0.119: copies of one block no longer differ in tint.
+const CHROMA_REACH: f32 = 6.0;
 
 /// The seam corrections lose their large-scale part, above a Gaussian of
 /// this many blocks ([`crate::synth::blend::without_drift`]). On
