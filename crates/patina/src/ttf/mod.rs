@@ -330,9 +330,13 @@ pub fn synthesize_chunk(
         let ((bw, bh), _) = quilt.resolve(features.width(), features.height())?;
         quilt.overlap = Some(((bw / OVERLAP_SHARE).max(2), (bh / OVERLAP_SHARE).max(2)));
     }
-    let materials = crate::image::sequence::temporal_mean(frames)?;
-    let quilted = Synthesis::new(&features)
-        .materials(&materials)
+    // The families are clustered only when the share control is on.
+    let materials = if params.quilt.families > 0.0 { Some(crate::image::sequence::temporal_mean(frames)?) } else { None };
+    let mut synthesis = Synthesis::new(&features);
+    if let Some(m) = &materials {
+        synthesis = synthesis.materials(m);
+    }
+    let quilted = synthesis
         .size(width, height)
         .metric(metric)
         .seed(rng::derive(seed, &[1]))
