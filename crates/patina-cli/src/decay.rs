@@ -37,6 +37,14 @@ fn parse_class(s: &str) -> std::result::Result<DecayClass, String> {
     s.parse::<DecayClass>().map_err(|e| e.to_string())
 }
 
+fn parse_substrate(s: &str) -> std::result::Result<decay::Substrate, String> {
+    match s {
+        "paint" => Ok(decay::Substrate::Paint),
+        "stone" => Ok(decay::Substrate::Stone),
+        _ => Err(format!("unknown substrate '{s}' (expected paint or stone)")),
+    }
+}
+
 /// Make a clean object in a photo decay over time: rust, peeling paint,
 /// cracks or moss spread from random seed areas (or your painted map),
 /// keeping the object's shading.
@@ -247,9 +255,13 @@ pub struct TextureArgs {
     /// Also write the onset channel (the degree at which each texel appears) here.
     #[arg(long)]
     pub onset: Option<PathBuf>,
-    /// Make the texture (and its onset) tile seamlessly; needs --exemplar (a procedural texture is a window of an
-    /// infinite one: continue it with --offset instead).
-    #[arg(long, requires = "exemplar")]
+    /// What a procedural texture is for: paint (cracks craze into cells) or stone (bare grey stone or plaster:
+    /// a few long fractures that end). `patina decay` picks it from the object's colour.
+    #[arg(long, value_parser = parse_substrate, default_value = "paint")]
+    pub substrate: decay::Substrate,
+    /// Make the texture (and its onset) tile seamlessly: its left edge continues its right and its top its bottom.
+    /// A tiling procedural texture repeats at the asked size, so it takes no --offset.
+    #[arg(long)]
     pub tile: bool,
     /// Output image (.png or .exr).
     #[arg(short, long)]
@@ -276,7 +288,13 @@ pub fn run_texture(args: TextureArgs) -> Result<()> {
             manifest.metrics.insert("lighting".into(), json!(made.lighting));
             made.texture
         }
-        None => texture::generate(args.class, args.seed, args.offset.0, args.offset.1, w, h)?,
+        None if args.tile => {
+            if args.offset != (0, 0) {
+                return Err(Error::invalid("--offset windows an infinite texture; a --tile texture repeats at its size"));
+            }
+            texture::generate_tiling(args.class, args.seed, w, h, args.substrate)?
+        }
+        None => texture::generate(args.class, args.seed, args.offset.0, args.offset.1, w, h, args.substrate)?,
     };
     manifest.timings_ms.insert("generate".into(), clock.lap());
     crate::embed::commit_point();
@@ -292,6 +310,7 @@ pub fn run_texture(args: TextureArgs) -> Result<()> {
         "offset": [args.offset.0, args.offset.1],
         "source": if args.exemplar.is_some() { "exemplar" } else { "procedural" },
         "tile": args.tile,
+        "substrate": args.substrate,
         "style": decay::Style::draw(args.seed),
     });
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();

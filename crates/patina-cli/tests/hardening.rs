@@ -154,7 +154,7 @@ fn counts_and_numbers_are_bounded_before_any_work() {
         (vec!["ttf", s(&dir), "-o", o, "--chunk", "three"], "chunk"),
         (vec!["synth", i, "-o", p, "--tile", "--relight", "stretch"], "tileable"),
         (vec!["synth", i, "-o", p, "--tile", "--size", "4x4", "--method", "quilt"], "tileable"),
-        (vec!["decay-texture", "-o", p, "--tile"], "--exemplar"),
+        (vec!["decay-texture", "-o", p, "--tile", "--offset", "5,0"], "repeats"),
     ] {
         refused(&dir, &args, needle);
     }

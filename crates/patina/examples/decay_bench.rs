@@ -17,7 +17,7 @@
 mod common;
 
 use common::peak_rss_mib;
-use patina::decay::{self, texture, DecayClass, DecayParams, Inputs};
+use patina::decay::{self, texture, DecayClass, DecayParams, Inputs, Substrate};
 use patina::metrics::stationarity;
 use std::time::Instant;
 
@@ -52,7 +52,7 @@ fn main() {
     println!("|---|---:|");
     for class in DecayClass::ALL {
         let t = Instant::now();
-        let tex = texture::generate(class, 1, 0, 0, 2048, 2048).expect("texture");
+        let tex = texture::generate(class, 1, 0, 0, 2048, 2048, Substrate::Paint).expect("texture");
         println!("| {} | {:.2} s |", class.name(), t.elapsed().as_secs_f64());
         drop(tex);
     }
@@ -61,7 +61,7 @@ fn main() {
     println!("| class | 256 (64 px crops) | 1024 | 2048 | max/min | 256 (1/4 crops) | 1024 | 2048 |");
     println!("|---|---:|---:|---:|---:|---:|---:|---:|");
     for class in DecayClass::ALL {
-        let rgb = |n, seed| texture::generate(class, seed, 0, 0, n, n).expect("texture").select_channels(0..3);
+        let rgb = |n, seed| texture::generate(class, seed, 0, 0, n, n, Substrate::Paint).expect("texture").select_channels(0..3);
         let fixed: Vec<f64> = [(256, 4u64), (1024, 2), (2048, 1)]
             .iter()
             .map(|&(n, seeds)| {

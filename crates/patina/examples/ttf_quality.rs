@@ -98,7 +98,10 @@ fn main() {
         let (g_mid, g_last) = (grid_peak(&frames[n / 2]), grid_peak(&frames[n - 1]));
         let f_in = flicker(frames);
         let rep_in = repeated_share(&frames[n / 2], 9, 16, 1).expect("repeats");
-        println!("| {name} {w}x{h}x{n} | input | 1 | 1 | {rep_in:.3} | 1 | {:.3} | 1 | 0 0 | |", input_nonstationarity(frames).expect("frames"));
+        println!(
+            "| {name} {w}x{h}x{n} | input | 1 | 1 | {rep_in:.3} | 1 | {:.3} | 1 | 0 0 | |",
+            input_nonstationarity(frames).expect("frames")
+        );
         for (label, params) in &settings {
             let start = Instant::now();
             let out = synthesize(frames, (2 * w, 2 * h), params, None, seed, None).expect("synthesize");

@@ -4,7 +4,7 @@
 
 use patina::decay::composite::{composite, edge_coverage, focus_blur, Layers};
 use patina::decay::layer::Relief;
-use patina::decay::texture::{generate, DecayClass};
+use patina::decay::texture::{generate, DecayClass, Substrate};
 use patina::decay::{self, DecayParams, Inputs, Transition};
 use patina::image::color::{linear_to_srgb, to_lab};
 use patina::image::{Image, Mask};
@@ -129,11 +129,15 @@ fn painted_degree_maps_and_rate_maps_steer_the_decay() {
 #[test]
 fn textures_are_seeded_diverse_and_generated_by_parts() {
     for class in DecayClass::ALL {
-        let a = generate(class, 1, 0, 0, 192, 192).unwrap();
-        assert_eq!(a.data(), generate(class, 1, 0, 0, 192, 192).unwrap().data(), "{class:?}: same seed, different texture");
+        let a = generate(class, 1, 0, 0, 192, 192, Substrate::Paint).unwrap();
+        assert_eq!(
+            a.data(),
+            generate(class, 1, 0, 0, 192, 192, Substrate::Paint).unwrap().data(),
+            "{class:?}: same seed, different texture"
+        );
         // Parts: four quadrants (odd sizes, so no alignment helps) equal the whole.
         for (x0, y0, w, h) in [(0, 0, 97, 101), (97, 0, 95, 101), (0, 101, 97, 91), (97, 101, 95, 91)] {
-            let part = generate(class, 1, x0 as i64, y0 as i64, w, h).unwrap();
+            let part = generate(class, 1, x0 as i64, y0 as i64, w, h, Substrate::Paint).unwrap();
             assert_eq!(part.data(), a.crop(x0, y0, w, h).unwrap().data(), "{class:?}: part at ({x0},{y0})");
         }
         // Diversity: two seeds must differ at least as much as two far-apart
@@ -142,8 +146,8 @@ fn textures_are_seeded_diverse_and_generated_by_parts() {
         // onset both count: peeling's and cracked's colour is mostly one
         // substrate or gap, and their layout lives in the onset.
         let mad = |p: &Image, q: &Image| p.data().iter().zip(q.data()).map(|(x, y)| (x - y).abs()).sum::<f32>() / p.data().len() as f32;
-        let b = generate(class, 2, 0, 0, 192, 192).unwrap();
-        let far = generate(class, 1, 5000, -7000, 192, 192).unwrap();
+        let b = generate(class, 2, 0, 0, 192, 192, Substrate::Paint).unwrap();
+        let far = generate(class, 1, 5000, -7000, 192, 192, Substrate::Paint).unwrap();
         let (seeds, windows) = (mad(&a, &b), mad(&a, &far));
         assert!(seeds > 0.8 * windows && seeds > 0.03, "{class:?}: seeds differ by {seeds}, windows by {windows}");
     }
@@ -157,8 +161,11 @@ fn textures_are_seeded_diverse_and_generated_by_parts() {
 /// at 2048, where one image's score is already stable).
 fn stationary_at_every_size(class: DecayClass) {
     let score = |n: usize, seeds: u64| {
-        let one =
-            |seed| stationarity(&generate(class, seed, 0, 0, n, n).unwrap().select_channels(0..3), Some((64, 64)), 64, 0).unwrap().mean;
+        let one = |seed| {
+            stationarity(&generate(class, seed, 0, 0, n, n, Substrate::Paint).unwrap().select_channels(0..3), Some((64, 64)), 64, 0)
+                .unwrap()
+                .mean
+        };
         (1..=seeds).map(one).sum::<f64>() / seeds as f64
     };
     let s = [score(256, 4), score(1024, 2), score(2048, 1)];
@@ -433,7 +440,7 @@ fn the_texture_takes_a_soft_photos_focus_and_the_silhouette_is_anti_aliased() {
     // blur of 1 px: the rust texture is blurred to match the soft one only.
     let mask = object();
     let grain = Image::from_fn(W, H, 3, |x, y, p| p.fill(0.5 + 0.4 * (value_noise(11, x as f32, y as f32) - 0.5)));
-    let texture = generate(DecayClass::Rust, 2, 0, 0, W, H).unwrap();
+    let texture = generate(DecayClass::Rust, 2, 0, 0, W, H, Substrate::Paint).unwrap();
     let sharp = focus_blur(&grain, &mask, &texture);
     let soft = focus_blur(&patina::image::filter::gaussian_blur(&grain, 1.0), &mask, &texture);
     assert!(sharp <= 0.2, "a sharp photo blurred the texture by {sharp} px");
@@ -494,7 +501,7 @@ fn edge_steps(tex: &Image) -> (f32, f32) {
 #[test]
 fn an_exemplar_texture_can_tile_colour_and_onset() {
     use patina::decay::exemplar::from_exemplar;
-    let exemplar = generate(DecayClass::Rust, 4, 0, 0, 96, 96).unwrap().select_channels(0..3);
+    let exemplar = generate(DecayClass::Rust, 4, 0, 0, 96, 96, Substrate::Paint).unwrap().select_channels(0..3);
     let tiled = from_exemplar(&exemplar, 144, 128, 2, true, None).unwrap().texture;
     let plain = from_exemplar(&exemplar, 144, 128, 2, false, None).unwrap().texture;
     let ((tc, to), (pc, po)) = (edge_steps(&tiled), edge_steps(&plain));
@@ -683,10 +690,10 @@ fn decay_takes_the_photos_exposure() {
 }
 
 #[test]
-fn patches_grow_from_their_first_texels() {
-    // Algorithm 1's patches shown whole in the first frame only swell after
-    // it; the first frame shows a tenth of their visible decay instead, and
-    // the frames grow it past the patches.
+fn the_sequence_starts_clean_and_grows_the_patches_from_their_first_texels() {
+    // Frame 0 is the photo itself; frame 1 shows the first texels of
+    // Algorithm 1's patches (inside them, a small part of their visible
+    // decay), and the frames grow the decay past the patches.
     let (input, mask) = (photo(), object());
     for class in [DecayClass::Rust, DecayClass::Mossy] {
         let prep = decay::prepare(&input, Inputs { mask: Some(&mask), ..Default::default() }, &DecayParams::new(class), 6).unwrap();
@@ -694,12 +701,13 @@ fn patches_grow_from_their_first_texels() {
         let patches = decay::visible_share(&prep.degree, &onset, &mask);
         let frames = decay::sequence(&prep, 8, 6, None).unwrap();
         let shares: Vec<f64> = frames.iter().map(|f| decay::visible_share(&f.degree, &onset, &mask)).collect();
-        assert!(shares[0] < 0.2 * patches, "{class:?}: frame 0 shows {} of the patches' {patches}", shares[0]);
-        assert!(shares[0] > 0.0, "{class:?}: frame 0 shows nothing");
+        assert_eq!(frames[0].image.data(), input.data(), "{class:?}: frame 0 is not the photo");
+        assert!(frames[0].degree.data().iter().all(|&d| d == 0.0), "{class:?}");
+        assert!(shares[1] > 0.0 && shares[1] < 0.5 * patches, "{class:?}: frame 1 shows {} of the patches' {patches}", shares[1]);
         assert!(shares[7] > patches, "{class:?}: the decay never grows past the patches: {shares:?}");
         // The first texels lie in the patches.
-        for (d, p) in frames[0].degree.data().iter().zip(prep.degree.data()) {
-            assert!(*d <= *p, "{class:?}: frame 0 decays outside the initial patches");
+        for (d, p) in frames[1].degree.data().iter().zip(prep.degree.data()) {
+            assert!(*d <= *p, "{class:?}: frame 1 decays outside the initial patches");
         }
         // One frame asked for: the patches themselves.
         let single = decay::sequence(&prep, 1, 6, None).unwrap();

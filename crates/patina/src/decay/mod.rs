@@ -6,8 +6,9 @@
 //! object's shading ([`shading`]), an initial degree map ([`degree::initial`],
 //! Algorithm 1, or a user's painting), its diffusion over the frames
 //! ([`degree::Diffuser`], eqs. 4-7), and Lab compositing ([`composite`], eq. 3).
-//! Algorithm 1's patches are grown from their first texels over the first
-//! frames (not in the paper; see [`NUCLEATION`]).
+//! The sequence starts from the clean photo and Algorithm 1's patches are
+//! grown from their first texels over the first frames (not in the paper;
+//! see [`sequence`]).
 //! [`prepare`] does the once-per-photo work, [`sequence`] renders frames.
 
 pub mod composite;
@@ -20,10 +21,11 @@ pub mod texture;
 pub use composite::Transition;
 pub use degree::Diffusion;
 pub use shading::ShadingParams;
-pub use texture::{DecayClass, Style};
+pub use texture::{DecayClass, Style, Substrate};
 
 use crate::image::color::{to_lab, with_colour};
 use crate::image::filter::gaussian_blur;
+use crate::image::noise::smoothstep;
 use crate::image::{Image, Mask};
 use crate::synth::Progress;
 use crate::{Error, Result};
@@ -78,6 +80,36 @@ const UNDER_THE_SCALE: [f32; 2] = [-10.0, 5.0];
 fn quantile(values: &mut [f32], q: f32) -> Option<f32> {
     let k = ((values.len().checked_sub(1)?) as f32 * q) as usize;
     Some(*values.select_nth_unstable_by(k, f32::total_cmp).1)
+}
+
+/// The photo's recesses, in [0, 1]: where its fine relief ([`shading::relief`],
+/// a luminance factor) is darker than the shading around it, from 5% (0)
+/// to 30% (1) darker in log luminance, softened by a 1 px Gaussian so a
+/// groove's floor and walls count alike. 0 outside the object (relief 1).
+pub fn cavities(relief: &Image) -> Image {
+    let dark = relief.map(|r| smoothstep(0.05, 0.3, -r.max(1e-6).ln() / shading::RELIEF));
+    gaussian_blur(&dark, 1.0)
+}
+
+/// Gaussian scale (pixels) above which [`flattened`] damps a texture's lightness.
+pub const FLATTEN_SCALE: f32 = 8.0;
+
+/// `texture_lab` with `share` of its lightness variation above
+/// [`FLATTEN_SCALE`] removed (L* moved towards its mean by that share of
+/// its blurred deviation), its fine grain and its colour kept; see
+/// [`DecayClass::flatten`].
+fn flattened(mut texture_lab: Image, share: f32) -> Image {
+    if share <= 0.0 {
+        return texture_lab;
+    }
+    let lightness = texture_lab.select_channels(0..1);
+    let n = lightness.data().len().max(1) as f64;
+    let mean = (lightness.data().iter().map(|&v| v as f64).sum::<f64>() / n) as f32;
+    let broad = gaussian_blur(&lightness, FLATTEN_SCALE);
+    texture_lab.data_mut().chunks_exact_mut(3).zip(broad.data()).for_each(|(px, b)| {
+        px[0] = (px[0] - share * (b - mean)).clamp(0.0, 100.0);
+    });
+    texture_lab
 }
 
 /// What [`sequence`] needs, computed once per photo.
@@ -154,6 +186,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         }
         None => Mask::filled(w, h, true),
     };
+    let photo_lab = to_lab(photo);
     let texture = match inputs.texture {
         Some(t) => {
             same("texture", t.size())?;
@@ -162,10 +195,12 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
             }
             t.clone()
         }
-        None => texture::generate(params.class, seed, 0, 0, w, h)?,
+        // A texture that tiles, so texture.png is a seamless material too.
+        None => {
+            texture::generate_tiling(params.class, seed, w, h, texture::Substrate::of_chroma(composite::mean_chroma(&photo_lab, &mask)))?
+        }
     };
-    let photo_lab = to_lab(photo);
-    let onset = texture.select_channels(3..4);
+    let mut onset = texture.select_channels(3..4);
     // The texture's colour as the photo's lens would show it (its onsets stay sharp).
     let focus = composite::focus_blur(photo, &mask, &texture);
     let focused = gaussian_blur(&texture.select_channels(0..3), focus);
@@ -176,6 +211,15 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     let mut lit = form.clone();
     lit.data_mut().iter_mut().zip(relief.data()).for_each(|(s, r)| *s *= r);
     let shading = shading::with_gloss(&lit, &mask, params.class.gloss());
+    let pull = params.class.cavity_pull();
+    if pull > 0.0 {
+        let cavity = cavities(&relief);
+        onset.data_mut().iter_mut().zip(cavity.data()).for_each(|(o, c)| {
+            if *o < texture::NEVER {
+                *o = (*o * (1.0 - pull * c).powi(2)).max(0.02);
+            }
+        });
+    }
     let texture_lab = if params.class.photo_relative() && inputs.texture.is_none() {
         composite::darkened_photo(photo, &focused, &shading, texture::CRACKED_SURFACE)
     } else {
@@ -196,6 +240,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         }
         texture_lab
     };
+    let texture_lab = flattened(texture_lab, params.class.flatten());
     let (degree, draws) = match inputs.degree {
         Some(painting) => (degree::from_painting(painting, &mask)?, 0),
         None => {
@@ -231,21 +276,29 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     })
 }
 
-/// Render `frames` frames: frame 0 composites the first texels of the
-/// initial degree map's patches (all of a painted map, or of any map when
-/// only one frame is asked for), later frames grow them into the patches
-/// and then run diffusion and growth, one simulated frame per frame, paced
-/// so the visible decay grows evenly.
+/// Render `frames` frames. With Algorithm 1's degree map and more than
+/// one frame, frame 0 is the clean photo and the next frames grow the
+/// initial map's patches from their first texels (the map scaled by a
+/// factor rising from 0, so each patch shows its lowest onsets where its
+/// degree is highest first) and then run diffusion and growth, one
+/// simulated frame per frame, paced so the visible decay grows evenly.
+/// A painted map is the user's frame 0 and is shown as painted; so is any
+/// map when only one frame is asked for.
+///
+/// Not in the paper, whose first frame shows the initial map whole: a
+/// blind reviewer read patches that arrive full-size as "patches appear
+/// nearly full-size in frame 1", and seeds already showing in frame 0 as
+/// a sequence that does not start from the photo.
 pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Progress>) -> Result<Vec<Frame>> {
     if frames == 0 {
         return Err(Error::invalid("--frames must be at least 1"));
     }
     // Simulate every frame's degree map (eqs. 4-7), then re-time them so
-    // the visible share grows evenly (see `paced`). Algorithm 1's patches
-    // are grown from their first texels (see `nuclei`).
+    // the visible share grows evenly (see `paced`), from the clean photo
+    // (a zero map) when the initial map is Algorithm 1's.
     let mut simulated = Vec::with_capacity(frames + 1);
     if frames > 1 && prep.draws > 0 {
-        simulated.push(nuclei(&prep.degree, &prep.onset, &prep.mask));
+        simulated.push(Image::new(prep.degree.width(), prep.degree.height(), 1));
     }
     simulated.push(prep.degree.clone());
     let diffuser = degree::Diffuser::new(&prep.mask, prep.rate.as_ref(), &prep.params.diffusion);
@@ -329,25 +382,6 @@ fn paced(simulated: &[Image], (k, frames): (usize, usize), (v0, v1): (f64, f64),
     let mut d = simulated[i].clone();
     d.data_mut().iter_mut().zip(simulated[i + 1].data()).for_each(|(x, y)| *x += w * (y - *x));
     d
-}
-
-/// Share of the initial map's visible decay that the first frame shows.
-pub const NUCLEATION: f64 = 0.1;
-
-/// Where Algorithm 1's patches start (not in the paper): the initial map
-/// scaled down until its visible share is [`NUCLEATION`] of its own, so
-/// the first frame shows each patch's earliest texels (its lowest onsets
-/// where the degree is highest) and the next frames grow them into the
-/// patches. Shown as it is, the initial map put every patch at full size
-/// into the first frame, after which the patches only swelled (a blind
-/// reviewer: "patches appear nearly full-size in frame 1").
-fn nuclei(initial: &Image, onset: &Image, mask: &Mask) -> Image {
-    let full = visible_share(initial, onset, mask);
-    let share = |s: f32| mean_weight(initial.data().iter().map(|d| s * d), onset, mask);
-    // The midpoints of 24 halvings of [0, 1] are exact in f32 too.
-    let (lo, _) = bisect((0.0, 1.0), |s| share(s as f32) < NUCLEATION * full);
-    let lo = lo as f32;
-    initial.map(|d| lo * d)
 }
 
 /// 24 halvings of `(lo, hi)` around where `below` stops holding (it holds

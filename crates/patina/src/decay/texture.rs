@@ -97,6 +97,34 @@ impl DecayClass {
         }
     }
 
+    /// How much earlier a texel appears in the photo's deepest
+    /// recesses (its onset is scaled by (1 - pull x cavity)^2, so a deep
+    /// groove fills as soon as the degree's faint front reaches it) ([`super::cavities`]: grooves, carved letters, the gaps
+    /// between a statue's curls, seams): moss and rust collect where water
+    /// and dirt stand, so they fill a carved letter before the face around
+    /// it; a flake or a crack has no such preference.
+    pub fn cavity_pull(self) -> f32 {
+        match self {
+            DecayClass::Mossy => 0.85,
+            DecayClass::Rust => 0.6,
+            DecayClass::Peeling | DecayClass::Cracked => 0.0,
+        }
+    }
+
+    /// Share of the texture's large-scale lightness variation (over
+    /// [`super::FLATTEN_SCALE`]) that compositing removes: a layer of
+    /// rust grown on an object shows the object's form through its own
+    /// light and dark, while a procedural texture's swirls of dark crust
+    /// and light oxide, tens of pixels across, hid a statue's nose and
+    /// eyes under a cloud pattern. The texture's fine grain is kept.
+    pub fn flatten(self) -> f32 {
+        match self {
+            DecayClass::Rust => 0.6,
+            DecayClass::Mossy => 0.3,
+            DecayClass::Peeling | DecayClass::Cracked => 0.0,
+        }
+    }
+
     /// Whether the texture's colour is a darkening of the photo's own
     /// rather than a material of its own: a crack is a shadowed gap in
     /// the object's paint or stone, so it takes the object's hue (dark
@@ -172,19 +200,31 @@ impl Style {
 /// Generate the `width` x `height` window at (`x0`, `y0`) of the infinite
 /// texture of `class` and `seed`. Every texel depends only on its absolute
 /// position, so windows of one texture tile it exactly.
-pub fn generate(class: DecayClass, seed: u64, x0: i64, y0: i64, width: usize, height: usize) -> Result<Image> {
+pub fn generate(class: DecayClass, seed: u64, x0: i64, y0: i64, width: usize, height: usize, substrate: Substrate) -> Result<Image> {
+    render(class, Generator { seed, style: Style::draw(seed), period: None, substrate }, (x0, y0), (width, height))
+}
+
+/// Generate a `width` x `height` texture of `class` and `seed` that tiles
+/// seamlessly: its left edge continues its right and its top its bottom
+/// (every noise lattice wraps around, see [`Layer::tiling`]). The same
+/// material as [`generate`]'s (on paint), not the same pixels.
+pub fn generate_tiling(class: DecayClass, seed: u64, width: usize, height: usize, substrate: Substrate) -> Result<Image> {
+    let gen = Generator { seed, style: Style::draw(seed), period: Some((width as f32, height as f32)), substrate };
+    render(class, gen, (0, 0), (width, height))
+}
+
+/// The texels of `gen`'s `class` over the window at `(x0, y0)`.
+fn render(class: DecayClass, gen: Generator, (x0, y0): (i64, i64), (width, height): (usize, usize)) -> Result<Image> {
     crate::image::budget::check_working_set("decay texture", width, height, CHANNELS)?;
     if width == 0 || height == 0 {
         return Err(Error::invalid(format!("decay texture size {width}x{height} is empty")));
     }
-    let style = Style::draw(seed);
     let texel: fn(&Generator, f32, f32) -> [f32; 4] = match class {
         DecayClass::Rust => rust,
         DecayClass::Peeling => peeling,
         DecayClass::Cracked => cracked,
         DecayClass::Mossy => mossy,
     };
-    let gen = Generator { seed, style };
     let mut img = Image::new(width, height, CHANNELS);
     img.data_mut().par_chunks_mut(width * CHANNELS).enumerate().for_each(|(y, row)| {
         for (x, px) in row.chunks_exact_mut(CHANNELS).enumerate() {
@@ -197,23 +237,70 @@ pub fn generate(class: DecayClass, seed: u64, x0: i64, y0: i64, width: usize, he
     Ok(img)
 }
 
-/// A class's texel function and what it reads: the seed and its style.
+/// A class's texel function and what it reads: the seed, its style and the period.
 struct Generator {
     seed: u64,
     style: Style,
+    /// The texture repeats every (width, height) pixels; `None`: never.
+    period: Option<(f32, f32)>,
+    /// What the decay grows on.
+    substrate: Substrate,
+}
+
+/// What a decay texture is made for: some decay takes a different form
+/// on bare stone or plaster than on paint.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Substrate {
+    /// Painted or coloured objects (and any object when unknown): cracks
+    /// craze the paint into a network of cells.
+    #[default]
+    Paint,
+    /// Unpainted grey stone or plaster (mean Lab chroma under
+    /// [`STONE_CHROMA`]): cracks are a few long, wider fractures that end,
+    /// not crazing (a blind reviewer: "crazing is wrong for slate").
+    Stone,
+}
+
+/// Mean Lab chroma under which an object counts as bare stone ([`Substrate::Stone`]).
+pub const STONE_CHROMA: f32 = 10.0;
+
+impl Substrate {
+    /// The substrate of an object whose mean Lab chroma is `chroma`.
+    pub fn of_chroma(chroma: f32) -> Self {
+        if chroma < STONE_CHROMA {
+            Substrate::Stone
+        } else {
+            Substrate::Paint
+        }
+    }
 }
 
 impl Generator {
     fn layer(&self, i: u64) -> Layer {
-        Layer::new(self.seed, i)
+        let layer = Layer::new(self.seed, i);
+        self.period.map_or(layer, |(w, h)| layer.tiling(w, h))
     }
 
-    /// (x, y) rotated by the style angle and squeezed along it by the
-    /// stretch: features elongate along the grain.
-    fn grain(&self, x: f32, y: f32) -> (f32, f32) {
-        let (s, c) = self.style.angle.sin_cos();
-        let (u, v) = (c * x + s * y, -s * x + c * y);
-        (u / self.style.stretch, v)
+    /// Layer `i` read along the grain at (x, y): the layer and where the
+    /// point falls in the grain's frame, rotated by the style angle and
+    /// squeezed along it by the stretch (times `widen`), so features
+    /// elongate along the grain. A tiling texture's frame is squeezed
+    /// along x only, and its layer repeats at the squeezed width (a
+    /// rotated frame cannot repeat on the axes).
+    fn along_grain(&self, i: u64, x: f32, y: f32, widen: f32) -> (Layer, f32, f32) {
+        let layer = Layer::new(self.seed, i);
+        match self.period {
+            None => {
+                let (s, c) = self.style.angle.sin_cos();
+                let (u, v) = (c * x + s * y, -s * x + c * y);
+                (layer, u / self.style.stretch * widen, v)
+            }
+            Some((w, h)) => {
+                let k = widen / self.style.stretch;
+                (layer.tiling(w * k, h), x * k, y)
+            }
+        }
     }
 }
 
@@ -261,9 +348,8 @@ fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
 fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     // Mildly elongated along the grain; a strong stretch read as streaks.
-    let (u, v) = g.grain(x, y);
-    let (u, v) = (u * (0.5 + 0.5 * g.style.stretch), v);
-    let patch = g.layer(0).warped(u, v, 70.0 * s, 5, 30.0 * s);
+    let (layer, u, v) = g.along_grain(0, x, y, 0.5 + 0.5 * g.style.stretch);
+    let patch = layer.warped(u, v, 70.0 * s, 5, 30.0 * s);
     let (big, small) = (g.layer(1).worley(x, y, 8.0 * s), g.layer(6).worley(x, y, 3.5));
     let ragged = g.layer(7).fbm(x, y, 2.0, 2, 0.5);
     let onset = 0.45 - 1.1 * patch + 0.22 * (big.id - 0.5) + 0.1 * (small.id - 0.5) + 0.04 * ragged;
@@ -296,16 +382,28 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
 /// photo's own (it never appears: replacing it flattened the object's
 /// relief into washed cells).
 fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
-    let s = g.style.scale;
-    let wx = x + 7.0 * s * g.layer(0).fbm(x, y, 30.0 * s, 3, 0.5);
-    let wy = y + 7.0 * s * g.layer(1).fbm(x + 91.0, y, 30.0 * s, 3, 0.5);
+    // Stone fractures: cells 2.2 times larger, more warped, wider, open.
+    let stone = g.substrate == Substrate::Stone;
+    let s = g.style.scale * if stone { 2.2 } else { 1.0 };
+    let warp = if stone { 10.0 } else { 7.0 };
+    let mut wx = x + warp * s * g.layer(0).fbm(x, y, 30.0 * s, 3, 0.5);
+    let mut wy = y + warp * s * g.layer(1).fbm(x + 91.0, y, 30.0 * s, 3, 0.5);
+    if stone {
+        // A fracture follows the grain: jagged at a few pixels, not a smooth curve.
+        wx += 2.0 * g.layer(9).fbm(x, y, 6.0, 2, 0.6);
+        wy += 2.0 * g.layer(10).fbm(x, y, 6.0, 2, 0.6);
+    }
     let (big_edge, small_edge) = (g.layer(2).voronoi_edge(wx, wy, 40.0 * s), g.layer(3).voronoi_edge(wx, wy, 17.0 * s));
     let (big, small) = (big_edge.distance, small_edge.distance);
-    let split = smoothstep(-0.1, 0.2, g.layer(4).fbm(x, y, 90.0 * s, 3, 0.5));
-    // Main cracks gape up to about 2 px; finer ones are lighter, but no
-    // thinner than a pixel (thinner ones broke into dotted chains).
-    let width = 0.8 + 0.5 * g.layer(5).fbm(x, y, 25.0, 2, 0.5);
-    let big_crack = 1.0 - smoothstep(width * 0.5, width + 0.7, big);
+    // Stone has no finer crazing between its fractures.
+    let split = if stone { 0.0 } else { smoothstep(-0.1, 0.2, g.layer(4).fbm(x, y, 90.0 * s, 3, 0.5)) };
+    // Main cracks gape up to about 2 px (3 in stone); finer ones are
+    // lighter, but no thinner than a pixel (thinner ones broke into dotted
+    // chains). A fracture runs along some of its cell's borders and stops:
+    // stone does not split into closed cells.
+    let width = if stone { 1.3 + 0.8 * g.layer(5).fbm(x, y, 40.0, 2, 0.5) } else { 0.8 + 0.5 * g.layer(5).fbm(x, y, 25.0, 2, 0.5) };
+    let open = !stone || big_edge.segment() < STONE_FRACTURES;
+    let big_crack = if open { 1.0 - smoothstep(width * 0.5, width + 0.7, big) } else { 0.0 };
     let small_crack = split * (1.0 - smoothstep(0.3, 0.9 + 0.3 * width, small));
     let crack = big_crack.max(0.85 * small_crack);
     let grain = g.layer(6).white(x as i32, y as i32) - 0.5;
@@ -325,6 +423,9 @@ fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let onset = if crack > 0.05 { onset.clamp(0.02, 0.95) } else { NEVER };
     [c[0], c[1], c[2], onset]
 }
+
+/// Share of the cell borders along which a stone fractures ([`cracked`]).
+const STONE_FRACTURES: f32 = 0.55;
 
 /// The crazed surface of [`cracked`] between its cracks (sRGB): what a
 /// crack's colour is measured against when it darkens a photo.
@@ -368,11 +469,31 @@ fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
 mod tests {
     use super::*;
 
+    /// A tiling texture continues across its edges: the window shifted by
+    /// (-5, -3) of the same periodic texture starts with the texture's last
+    /// 5 columns and 3 rows, texel for texel.
+    #[test]
+    fn a_tiling_texture_repeats_at_its_size() {
+        let (w, h) = (97, 61);
+        for class in DecayClass::ALL {
+            let texture = generate_tiling(class, 3, w, h, Substrate::Stone).unwrap();
+            let gen = Generator { seed: 3, style: Style::draw(3), period: Some((w as f32, h as f32)), substrate: Substrate::Stone };
+            let shifted = render(class, gen, (-5, -3), (w, h)).unwrap();
+            for (x, y) in [(0, 0), (4, 2), (3, 40), (50, 1), (0, 60)] {
+                let (sx, sy) = ((x + w - 5) % w, (y + h - 3) % h);
+                let (a, b) = (shifted.pixel(x, y), texture.pixel(sx, sy));
+                for c in 0..CHANNELS {
+                    assert!((a[c] - b[c]).abs() < 2e-3, "{class:?} at ({x}, {y}) channel {c}: {} vs {}", a[c], b[c]);
+                }
+            }
+        }
+    }
+
     #[test]
     fn windows_tile_the_whole_texture_exactly() {
         for class in DecayClass::ALL {
-            let whole = generate(class, 5, 0, 0, 64, 48).unwrap();
-            let part = generate(class, 5, 20, 10, 30, 30).unwrap();
+            let whole = generate(class, 5, 0, 0, 64, 48, Substrate::Paint).unwrap();
+            let part = generate(class, 5, 20, 10, 30, 30, Substrate::Paint).unwrap();
             assert_eq!(whole.crop(20, 10, 30, 30).unwrap().data(), part.data(), "{class:?}");
         }
     }

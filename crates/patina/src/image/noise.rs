@@ -31,28 +31,94 @@ const GRADIENTS: [[f32; 2]; 16] = {
     g
 };
 
-/// One noise layer: a 32-bit seed for the lattice hash.
+/// One noise layer: a 32-bit seed for the lattice hash, and optionally a
+/// period in pixels ([`Layer::tiling`]).
 #[derive(Clone, Copy, Debug)]
-pub struct Layer(u32);
+pub struct Layer {
+    key: u32,
+    /// The layer repeats every (width, height) pixels; `None`: never.
+    period: Option<(f32, f32)>,
+}
 
 impl Layer {
     /// The layer `index` of a texture with seed `seed`.
     pub fn new(seed: u64, index: u64) -> Self {
-        Layer((crate::rng::derive(seed, &[0xdeca, index]) >> 32) as u32)
+        Layer { key: (crate::rng::derive(seed, &[0xdeca, index]) >> 32) as u32, period: None }
+    }
+
+    /// This layer made to repeat every `width` x `height` pixels, so a
+    /// texture drawn from it over that size tiles seamlessly: every
+    /// lattice wraps around (its hash is taken modulo the number of
+    /// lattice cells that fit the period). A feature scale is rounded so a
+    /// whole number of cells fits each side (at least one), which
+    /// stretches cells by up to half a cell over the period (a few percent
+    /// on a texture many cells wide), and [`Layer::fbm`]'s octaves are
+    /// offset instead of rotated against each other (a rotated lattice
+    /// cannot repeat on the axes).
+    /// The period need not be a whole number of pixels (a texture read in
+    /// squeezed coordinates repeats every squeezed width); [`Layer::white`]
+    /// rounds it.
+    pub fn tiling(self, width: f32, height: f32) -> Self {
+        Layer { period: Some((width.max(1.0), height.max(1.0))), ..self }
+    }
+
+    /// This layer's period with another hash key.
+    fn keyed(self, key: u32) -> Self {
+        Layer { key, ..self }
+    }
+
+    /// For features of `scale` pixels repeating every `(w, h)` pixels: the
+    /// lattice cells per period on each axis and the factors from pixels to
+    /// lattice units.
+    #[inline]
+    fn lattice(scale: f32, (w, h): (f32, f32)) -> ((i32, i32), (f32, f32)) {
+        let cells = |side: f32| ((side / scale).round() as i32).max(1);
+        let (cx, cy) = (cells(w), cells(h));
+        ((cx, cy), (cx as f32 / w, cy as f32 / h))
+    }
+
+    /// Pixel (x, y) in the lattice units of cells of `cell` pixels, the
+    /// lattice's period in cells (0: none) and the side of a cell in
+    /// pixels (the mean of the two axes' when tiling stretched them).
+    #[inline]
+    fn cells(self, x: f32, y: f32, cell: f32) -> ((f32, f32), (i32, i32), f32) {
+        match self.period {
+            None => ((x / cell, y / cell), (0, 0), cell),
+            Some(period) => {
+                let (cells, (kx, ky)) = Self::lattice(cell, period);
+                ((x * kx, y * ky), cells, 2.0 / (kx + ky))
+            }
+        }
+    }
+
+    /// Lattice point (x, y) folded into a period of `cells` (0: unfolded).
+    #[inline]
+    fn fold((x, y): (i32, i32), (cx, cy): (i32, i32)) -> (i32, i32) {
+        (if cx > 0 { x.rem_euclid(cx) } else { x }, if cy > 0 { y.rem_euclid(cy) } else { y })
     }
 
     /// A well-mixed 32-bit hash of lattice point (x, y).
     #[inline]
     fn hash(self, x: i32, y: i32) -> u32 {
-        let mut h = self.0 ^ (x as u32).wrapping_mul(0x8da6_b343) ^ (y as u32).wrapping_mul(0xd816_3841);
+        let mut h = self.key ^ (x as u32).wrapping_mul(0x8da6_b343) ^ (y as u32).wrapping_mul(0xd816_3841);
         h = (h ^ (h >> 16)).wrapping_mul(0x7feb_352d);
         h = (h ^ (h >> 15)).wrapping_mul(0x846c_a68b);
         h ^ (h >> 16)
     }
 
-    /// Uniform in [0, 1) at lattice point (x, y).
+    /// Uniform in [0, 1) at lattice point (x, y) (a pixel; folded into the period).
     #[inline]
     pub fn white(self, x: i32, y: i32) -> f32 {
+        let (x, y) = match self.period {
+            Some((w, h)) => Self::fold((x, y), ((w.round() as i32).max(1), (h.round() as i32).max(1))),
+            None => (x, y),
+        };
+        self.unit(x, y)
+    }
+
+    /// Uniform in [0, 1) from the hash of (x, y), unfolded.
+    #[inline]
+    fn unit(self, x: i32, y: i32) -> f32 {
         (self.hash(x, y) >> 8) as f32 * (1.0 / 16_777_216.0)
     }
 
@@ -60,10 +126,17 @@ impl Layer {
     /// (quintic fade, 16 unit gradient directions).
     #[inline]
     pub fn perlin(self, x: f32, y: f32) -> f32 {
+        self.perlin_folded(x, y, (0, 0))
+    }
+
+    /// [`Layer::perlin`] on a lattice that repeats every `cells` (0: never).
+    #[inline]
+    fn perlin_folded(self, x: f32, y: f32, cells: (i32, i32)) -> f32 {
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let (ix, iy) = (x0 as i32, y0 as i32);
         let grad = |i: i32, j: i32, dx: f32, dy: f32| {
+            let (i, j) = Self::fold((i, j), cells);
             let [gx, gy] = GRADIENTS[(self.hash(i, j) >> 28) as usize];
             dx * gx + dy * gy
         };
@@ -80,9 +153,23 @@ impl Layer {
     /// Octaves are rotated against each other so lattice axes do not show.
     pub fn fbm(self, x: f32, y: f32, scale: f32, octaves: usize, gain: f32) -> f32 {
         let (mut sum, mut amp, mut norm) = (0.0, 1.0, 0.0);
+        if let Some(period) = self.period {
+            // Tiling: each octave on its own wrapped lattice, offset.
+            let mut s = scale;
+            for o in 0..octaves {
+                let layer = self.keyed(self.key.wrapping_add((o as u32).wrapping_mul(0x9e37_79b9)));
+                let (cells, (kx, ky)) = Self::lattice(s, period);
+                let shift = o as f32;
+                sum += amp * layer.perlin_folded(x * kx + 17.3 * shift, y * ky - 9.1 * shift, cells);
+                norm += amp;
+                amp *= gain;
+                s *= 0.5;
+            }
+            return sum / norm;
+        }
         let (mut px, mut py) = (x / scale, y / scale);
         for o in 0..octaves {
-            let layer = Layer(self.0.wrapping_add((o as u32).wrapping_mul(0x9e37_79b9)));
+            let layer = self.keyed(self.key.wrapping_add((o as u32).wrapping_mul(0x9e37_79b9)));
             sum += amp * layer.perlin(px, py);
             norm += amp;
             amp *= gain;
@@ -96,8 +183,8 @@ impl Layer {
     /// by two more fBm fields of wavelength `scale`, times `warp` pixels.
     /// Gives the swirled, flowing shapes of corrosion and lichen.
     pub fn warped(self, x: f32, y: f32, scale: f32, octaves: usize, warp: f32) -> f32 {
-        let qx = Layer(self.0 ^ 0x5bd1_e995).fbm(x, y, scale, 4, 0.5);
-        let qy = Layer(self.0 ^ 0x1b87_3593).fbm(x + 5.2 * scale, y + 1.3 * scale, scale, 4, 0.5);
+        let qx = self.keyed(self.key ^ 0x5bd1_e995).fbm(x, y, scale, 4, 0.5);
+        let qy = self.keyed(self.key ^ 0x1b87_3593).fbm(x + 5.2 * scale, y + 1.3 * scale, scale, 4, 0.5);
         self.fbm(x + warp * qx, y + warp * qy, scale, octaves, 0.5)
     }
 
@@ -105,16 +192,17 @@ impl Layer {
     /// to the nearest and second-nearest feature point (in pixels) and a
     /// hash of the nearest point's cell, uniform in [0, 1).
     pub fn worley(self, x: f32, y: f32, cell: f32) -> Cellular {
-        let (cx, cy) = (x / cell, y / cell);
+        // Distances in pixels: lattice units times the cell side.
+        let ((cx, cy), cells, side) = self.cells(x, y, cell);
         let (ix, iy) = (cx.floor() as i32, cy.floor() as i32);
         let mut best = Cellular { f1: f32::MAX, f2: f32::MAX, id: 0.0 };
         for j in iy - 1..=iy + 1 {
             for i in ix - 1..=ix + 1 {
-                let (px, py) = self.feature_point(i, j);
+                let (px, py) = self.feature_point(i, j, cells);
                 let (dx, dy) = (px - cx, py - cy);
-                let d = (dx * dx + dy * dy).sqrt() * cell;
+                let d = (dx * dx + dy * dy).sqrt() * side;
                 if d < best.f1 {
-                    best = Cellular { f2: best.f1, f1: d, id: Layer(self.0 ^ 0xc2b2_ae35).white(i, j) };
+                    best = Cellular { f2: best.f1, f1: d, id: self.cell_id((i, j), cells) };
                 } else if d < best.f2 {
                     best.f2 = d;
                 }
@@ -123,11 +211,20 @@ impl Layer {
         best
     }
 
-    /// The jittered feature point of lattice cell (i, j), in cell units.
+    /// The jittered feature point of lattice cell (i, j), in cell units
+    /// (its jitter folded into the period of `cells`).
     #[inline]
-    fn feature_point(self, i: i32, j: i32) -> (f32, f32) {
-        let h = self.hash(i, j);
+    fn feature_point(self, i: i32, j: i32, cells: (i32, i32)) -> (f32, f32) {
+        let (fi, fj) = Self::fold((i, j), cells);
+        let h = self.hash(fi, fj);
         (i as f32 + (h & 0xffff) as f32 / 65536.0, j as f32 + (h >> 16) as f32 / 65536.0)
+    }
+
+    /// A hash of lattice cell (i, j) (folded), uniform in [0, 1).
+    #[inline]
+    fn cell_id(self, at: (i32, i32), cells: (i32, i32)) -> f32 {
+        let (i, j) = Self::fold(at, cells);
+        self.keyed(self.key ^ 0xc2b2_ae35).unit(i, j)
     }
 
     /// The exact distance (pixels) from (x, y) to the nearest border of
@@ -139,12 +236,12 @@ impl Layer {
     /// wedges where they meet. Also the hash of the cell across that
     /// border, so a border segment can be told by its two cells.
     pub fn voronoi_edge(self, x: f32, y: f32, cell: f32) -> VoronoiEdge {
-        let (cx, cy) = (x / cell, y / cell);
+        let ((cx, cy), cells, side) = self.cells(x, y, cell);
         let (ix, iy) = (cx.floor() as i32, cy.floor() as i32);
         let (mut best, mut near, mut at) = (f32::MAX, (0.0, 0.0), (0, 0));
         for j in iy - 1..=iy + 1 {
             for i in ix - 1..=ix + 1 {
-                let (px, py) = self.feature_point(i, j);
+                let (px, py) = self.feature_point(i, j, cells);
                 let d = (px - cx).powi(2) + (py - cy).powi(2);
                 if d < best {
                     (best, near, at) = (d, (px - cx, py - cy), (i, j));
@@ -157,7 +254,7 @@ impl Layer {
                 if (i, j) == at {
                     continue;
                 }
-                let (px, py) = self.feature_point(i, j);
+                let (px, py) = self.feature_point(i, j, cells);
                 let (rx, ry) = (px - cx, py - cy);
                 let (dx, dy) = (rx - near.0, ry - near.1);
                 let len = (dx * dx + dy * dy).sqrt();
@@ -167,8 +264,7 @@ impl Layer {
                 }
             }
         }
-        let id = |(i, j)| Layer(self.0 ^ 0xc2b2_ae35).white(i, j);
-        VoronoiEdge { distance: edge * cell, id: id(at), across: id(across) }
+        VoronoiEdge { distance: edge * side, id: self.cell_id(at, cells), across: self.cell_id(across, cells) }
     }
 }
 
@@ -256,7 +352,7 @@ mod tests {
             let (cx, cy) = (x / cell, y / cell);
             let points: Vec<(f32, f32)> = (-3..=3)
                 .flat_map(|j| (-3..=3).map(move |i| (i, j)))
-                .map(|(i, j)| layer.feature_point(cx.floor() as i32 + i, cy.floor() as i32 + j))
+                .map(|(i, j)| layer.feature_point(cx.floor() as i32 + i, cy.floor() as i32 + j, (0, 0)))
                 .collect();
             let d2 = |p: &(f32, f32)| (p.0 - cx).powi(2) + (p.1 - cy).powi(2);
             let near = *points.iter().min_by(|a, b| d2(a).total_cmp(&d2(b))).unwrap();

@@ -163,7 +163,15 @@ impl Default for TtfParams {
         TtfParams {
             rank: 15,
             max_error: None,
-            quilt: QuiltParams { feather: 0, blend: true, reuse: REUSE, rarity: RARITY, families: FAMILIES, relative: RELATIVE, ..QuiltParams::default() },
+            quilt: QuiltParams {
+                feather: 0,
+                blend: true,
+                reuse: REUSE,
+                rarity: RARITY,
+                families: FAMILIES,
+                relative: RELATIVE,
+                ..QuiltParams::default()
+            },
             jitter: None,
             lighting: SequenceLighting::Auto,
             balance: true,
