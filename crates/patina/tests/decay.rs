@@ -714,3 +714,47 @@ fn the_sequence_starts_clean_and_grows_the_patches_from_their_first_texels() {
         assert_eq!(single[0].degree.data(), prep.degree.data(), "{class:?}");
     }
 }
+
+/// Moss and rust collect in recesses: on a flat grey slab carved with
+/// thin grooves (half as bright as the face around them), under one low
+/// painted degree everywhere, the decay shows in the grooves well before
+/// it covers the face; cracks have no such preference.
+#[test]
+fn moss_and_rust_fill_the_grooves_first() {
+    let mask = object();
+    let groove = |x: usize, y: usize| (y % 16 < 3 && y > 20 && y < 108) || (x % 24 < 3 && x > 40 && x < 120);
+    let input = Image::from_fn(W, H, 3, |x, y, p| {
+        let shade = if mask.get(x, y) && groove(x, y) { 0.5 } else { 1.0 };
+        p.fill(linear_to_srgb(0.35 * shade) + 0.01 * (value_noise(3, x as f32, y as f32) - 0.5));
+    });
+    let painted = Image::from_fn(W, H, 1, |_, _, p| p[0] = 0.15);
+    let share = |class: DecayClass| {
+        let inputs = Inputs { mask: Some(&mask), degree: Some(&painted), ..Default::default() };
+        let prep = decay::prepare(&input, inputs, &DecayParams::new(class), 3).unwrap();
+        let frame = &decay::sequence(&prep, 1, 3, None).unwrap()[0].image;
+        let (mut inside, mut outside) = ([0usize; 2], [0usize; 2]);
+        for y in 14..114usize {
+            for x in 32..128usize {
+                // The face well away from a groove (its stain and blur do not reach).
+                let near = (x.saturating_sub(4)..x + 5).any(|u| (y.saturating_sub(4)..y + 5).any(|v| groove(u, v)));
+                let changed = (0..3).any(|c| (frame.at(x, y, c) - input.at(x, y, c)).abs() > 0.04) as usize;
+                let bucket = if groove(x, y) {
+                    &mut inside
+                } else if !near {
+                    &mut outside
+                } else {
+                    continue;
+                };
+                bucket[0] += changed;
+                bucket[1] += 1;
+            }
+        }
+        (inside[0] as f32 / inside[1] as f32, outside[0] as f32 / outside[1] as f32)
+    };
+    for class in [DecayClass::Mossy, DecayClass::Rust] {
+        let (groove, face) = share(class);
+        assert!(groove > 0.2 && groove > 2.0 * face, "{class:?}: decayed share in the grooves {groove}, on the face {face}");
+    }
+    let (groove, face) = share(DecayClass::Cracked);
+    assert!(groove < 3.0 * face + 0.05, "cracked prefers the grooves: {groove} vs {face}");
+}

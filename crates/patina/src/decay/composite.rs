@@ -312,6 +312,27 @@ pub fn edge_coverage(mask: &Mask) -> Option<Image> {
     Some(soft)
 }
 
+/// Reach (Gaussian sigma, pixels) of [`carried_past_the_edge`].
+const CARRY: f32 = 2.0;
+
+/// `weight` inside the object (`coverage` > 0) and, outside it, the mean
+/// of the weight on the object nearby (a normalised convolution over the
+/// object's pixels at [`CARRY`]): the layer continues past the silhouette
+/// instead of stepping down to 0 there.
+fn carried_past_the_edge(weight: &Image, coverage: &Image) -> Image {
+    let inside = coverage.map(|c| (c > 0.0) as u8 as f32);
+    let mut held = weight.clone();
+    held.data_mut().iter_mut().zip(inside.data()).for_each(|(v, m)| *v *= m);
+    let (num, den) = (gaussian_blur(&held, CARRY), gaussian_blur(&inside, CARRY));
+    let mut out = weight.clone();
+    out.data_mut().iter_mut().zip(inside.data()).zip(num.data().iter().zip(den.data())).for_each(|((v, &m), (n, d))| {
+        if m == 0.0 {
+            *v = if *d > 1e-4 { n / d } else { 0.0 };
+        }
+    });
+    out
+}
+
 /// Eq. 3: the photo `photo` (sRGB, its bytes kept wherever the decay is
 /// invisible and has no stain) decayed to `degree` with the `layers`.
 /// Pixels with degree 0 (and so everything outside the mask) are copied
@@ -337,10 +358,18 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
         opacity = gaussian_blur(&opacity, edge);
         opacity.data_mut().iter_mut().zip(degree.data()).for_each(|(v, &d)| *v = if d > 0.0 { v.min(1.0) } else { 0.0 });
     }
+    // The layer's relief is read from the opacity carried on past the
+    // silhouette, so the object's outline is no step in the layer (a flake
+    // hole ending at the mask drew a dark wall along the silhouette).
+    let relief_weight = match layers.coverage {
+        Some(c) if channels >= 3 && layers.relief.height != 0.0 => Some(carried_past_the_edge(&opacity, c)),
+        _ => None,
+    };
     if let Some(c) = layers.coverage {
         opacity.data_mut().iter_mut().zip(c.data()).for_each(|(v, &c)| *v *= c);
     }
-    let lighting = if channels >= 3 { layer::factor(&opacity, degree, &layers.relief, layers.light) } else { None };
+    let lighting =
+        if channels >= 3 { layer::factor(relief_weight.as_ref().unwrap_or(&opacity), degree, &layers.relief, layers.light) } else { None };
     let mut out = photo.clone();
     out.data_mut().par_chunks_mut(w * channels).enumerate().for_each(|(y, row)| {
         for (x, px) in row.chunks_exact_mut(channels).enumerate() {

@@ -65,6 +65,10 @@ pub fn estimate(photo: &Image, mask: &Mask, params: &ShadingParams) -> Image {
 /// specular highlight ([`with_gloss`]).
 pub const HIGHLIGHT_QUANTILE: f32 = 0.8;
 
+/// How far above the [`HIGHLIGHT_QUANTILE`] level shading must rise to
+/// count as a specular highlight ([`with_gloss`]).
+pub const HIGHLIGHT_MARGIN: f32 = 1.25;
+
 /// The natural log of the photo's linear luminance (at least 1e-3), one channel.
 fn log_luminance(photo: &Image) -> Image {
     Image::from_fn(photo.width(), photo.height(), 1, |x, y, p| {
@@ -109,22 +113,28 @@ pub fn relief(photo: &Image, mask: &Mask, shading: &Image, strength: f32) -> Ima
 /// glossy as the photo's) would show it. The edge-preserving estimate
 /// keeps the photo's specular highlights as part of S, so a matte decay
 /// texture composited under it would carry a glossy highlight (rust on a
-/// wok). Shading above the object's [`HIGHLIGHT_QUANTILE`] level Q is
-/// taken as highlight and compressed to Q (Q / S)^(1 - gloss) x S: flat
-/// at Q for a matte material, unchanged for gloss 1.
+/// wok). Shading above T = [`HIGHLIGHT_MARGIN`] x the object's
+/// [`HIGHLIGHT_QUANTILE`] level is taken as highlight and compressed to
+/// T (S / T)^gloss: flat at T for a matte material, unchanged for gloss 1.
+/// A highlight stands well above the diffuse shading around it; with T at
+/// the quantile itself, the lit half of a matte white statue (its curls'
+/// lit tops, the shading of its cheek) was flattened to one level under
+/// rust and peeling.
 ///
 /// Simplification: the issue suggests a dichromatic or max-chromaticity
 /// separation of the specular layer; on the grey and black objects it
 /// names (a silver car, a wok) diffuse and specular share one
 /// chromaticity and that separation has nothing to work with, so the
-/// highlight is found by its brightness instead. A diffuse object loses
-/// the top 20% of its shading range, and a highlight covering more than
-/// 20% of the object is only partly removed (at the 90% quantile, the
-/// broad highlight on a white statue's crown still showed through rust).
+/// highlight is found by its brightness instead. A diffuse object lit
+/// very unevenly loses the top of its shading range, a highlight under
+/// 1.25 times the quantile level stays, and a highlight covering more
+/// than 20% of the object is only partly removed (at the 90% quantile,
+/// the broad highlight on a white statue's crown still showed through
+/// rust).
 pub fn with_gloss(shading: &Image, mask: &Mask, gloss: f32) -> Image {
     let mut inside: Vec<f32> = shading.data().iter().zip(mask.bits()).filter(|(_, &m)| m).map(|(v, _)| *v).collect();
     let q = match super::quantile(&mut inside, HIGHLIGHT_QUANTILE) {
-        Some(q) if gloss < 1.0 => q,
+        Some(q) if gloss < 1.0 => HIGHLIGHT_MARGIN * q,
         _ => return shading.clone(),
     };
     let keep = gloss.clamp(0.0, 1.0);
@@ -236,5 +246,27 @@ mod tests {
         let row: Vec<f32> = (40..56).map(|x| s.at(x, 32, 0).ln()).collect();
         let wiggle = row.windows(2).map(|p| (p[1] - p[0]).abs()).fold(0.0f32, f32::max);
         assert!(wiggle < 0.05, "albedo stripes left in the shading: step {wiggle}");
+    }
+
+    /// A matte material keeps the diffuse shading of a lit side (up to
+    /// 1.2 x the 80% quantile level) and flattens a specular peak (3 x).
+    #[test]
+    fn matte_gloss_flattens_highlights_and_keeps_a_lit_side() {
+        let (w, h) = (100, 10);
+        // 70% of the object at 1, a lit side at 1.2 (25%), a highlight at 3 (5%).
+        let shading = Image::from_fn(w, h, 1, |x, _, p| {
+            p[0] = if x < 70 {
+                1.0
+            } else if x < 95 {
+                1.2
+            } else {
+                3.0
+            }
+        });
+        let matte = with_gloss(&shading, &Mask::filled(w, h, true), 0.0);
+        assert_eq!(matte.at(80, 5, 0), 1.2, "the lit side was flattened");
+        assert!(matte.at(97, 5, 0) <= HIGHLIGHT_MARGIN * 1.2 + 1e-6, "the highlight stays: {}", matte.at(97, 5, 0));
+        let glossy = with_gloss(&shading, &Mask::filled(w, h, true), 1.0);
+        assert_eq!(glossy.at(97, 5, 0), 3.0);
     }
 }

@@ -66,7 +66,7 @@ impl DecayClass {
             DecayClass::Rust => Transition { width: 9.0, tint: [0.85, 0.45, 0.16], strength: 1.0, offset: [0.0, 0.0], drip: 110.0 },
             DecayClass::Peeling => Transition { width: 1.2, tint: [0.45, 0.43, 0.4], strength: 0.8, offset: [1.5, 1.5], drip: 0.0 },
             DecayClass::Cracked => Transition { width: 1.0, tint: [0.62, 0.6, 0.57], strength: 0.6, offset: [0.0, 0.0], drip: 0.0 },
-            DecayClass::Mossy => Transition { width: 4.0, tint: [0.5, 0.56, 0.32], strength: 0.6, offset: [0.0, 0.0], drip: 0.0 },
+            DecayClass::Mossy => Transition { width: 6.0, tint: [0.5, 0.56, 0.32], strength: 0.8, offset: [0.0, 0.0], drip: 0.0 },
         }
     }
 
@@ -90,7 +90,7 @@ impl DecayClass {
     /// cushion is thick and shades its own far side.
     pub fn relief(self) -> Relief {
         match self {
-            DecayClass::Peeling => Relief { height: -2.5, softness: 0.7, strength: 1.2, shadow: 0.65 },
+            DecayClass::Peeling => Relief { height: -3.0, softness: 0.7, strength: 1.3, shadow: 0.75 },
             DecayClass::Cracked => Relief { height: -1.6, softness: 0.6, strength: 1.0, shadow: 0.55 },
             DecayClass::Rust => Relief { height: 0.8, softness: 1.2, strength: 0.5, shadow: 0.25 },
             DecayClass::Mossy => Relief { height: 2.0, softness: 1.5, strength: 0.6, shadow: 0.35 },
@@ -305,8 +305,9 @@ impl Generator {
 }
 
 /// Rust: domain-warped layers (the swirls of corroded_rust_swirls) mapped
-/// through an oxide palette (no contour lines: reviewers read them as banding), a flaky dark
-/// crust, bright granular blooms and pixel grain; onset lowest in the
+/// through an oxide palette (no contour lines: reviewers read them as banding), zones of
+/// yellow-ochre and black oxide, a dark crust of scale plates (cellular,
+/// with dark gaps), bright granular blooms and grain; onset lowest in the
 /// deepest corrosion, ragged at small scale.
 fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
@@ -321,9 +322,22 @@ fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let red = if g.style.variant < 0.5 { [0.36, 0.12, 0.05] } else { [0.30, 0.13, 0.07] };
     let stops = [(0.0, [0.09, 0.05, 0.03]), (0.3, red), (0.58, [0.60, 0.25, 0.08]), (0.85, [0.70, 0.38, 0.13])];
     let mut c = ramp(&stops, depth + 0.1 * fine);
+    // Oxides of more than one colour, in zones tens of pixels across:
+    // yellow-ochre hydrated oxide where it is thin and wet, black-grey
+    // magnetite in the deep corrosion.
+    let ochre = smoothstep(0.25, 0.6, g.layer(8).fbm(x, y, 35.0 * s, 3, 0.55)) * smoothstep(0.35, 0.7, depth);
+    let black = smoothstep(0.3, 0.6, g.layer(9).fbm(x, y, 25.0 * s, 3, 0.55)) * smoothstep(0.55, 0.25, depth);
+    c = mix3(c, [0.66, 0.46, 0.18], 0.55 * ochre);
+    c = mix3(c, [0.13, 0.11, 0.10], 0.6 * black);
     c = mix3(c, [0.22, 0.095, 0.05], 0.7 * crust);
     c = mix3(c, [0.82, 0.42, 0.12], 0.7 * bloom * (1.0 - crust));
-    let shade = 1.0 + 0.14 * grain + 0.1 * fine;
+    // The crust is scale: plates a few pixels across, split by dark gaps
+    // and lit on their upper-left rims.
+    let plate = g.layer(10).worley(x, y, 5.0 * s);
+    let gap = smoothstep(0.0, 1.2, plate.border());
+    let rim = smoothstep(2.5, 0.5, plate.f1) * 0.5;
+    let scale_shade = 0.7 + 0.3 * gap + 0.12 * rim * (plate.id - 0.3);
+    let shade = (1.0 + 0.08 * grain + 0.12 * fine) * (1.0 + crust * (scale_shade - 1.0));
     c = c.map(|v| v * shade);
     let patches = g.layer(5).fbm(x, y, 70.0 * s, 4, 0.5);
     let ragged = g.layer(7).fbm(x, y, 2.5, 2, 0.5);
@@ -337,7 +351,8 @@ fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
 /// widens chip by chip as the degree rises: each chip's onset is the
 /// slow patch field at that point plus its own random offset, so the
 /// border advances by chips breaking off, not by a smooth front. Where the
-/// paint is gone the texture shows the substrate: here bare primed metal,
+/// paint is gone the texture shows an older coat at first (its own chips
+/// come off in turn) and then the substrate: here bare primed metal,
 /// a dark grey primer mottled with rust stains, rustier where it was bared
 /// first (the lowest onsets), and pitted grain; on
 /// an unpainted (grey) object compositing moves it to the object's own
@@ -369,10 +384,26 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let rusted = (0.8 * stain + 0.6 * smoothstep(0.35, 0.05, onset)).min(1.0);
     let mut c = mix3(primer, [0.42, 0.22, 0.10], 0.8 * rusted);
     c = mix3(c, [0.30, 0.17, 0.10], 0.7 * pit);
+    // An older coat under the paint: the chips bared last (the highest
+    // onsets, at a patch's fringe) still carry it, chipped in its own
+    // cells; the metal shows where the patch opened first.
+    let chip = g.layer(11).worley(x, y, 5.0 * s);
+    if onset + 0.16 * (chip.id - 0.5) > UNDERCOAT_FROM {
+        let coat = UNDERCOATS[((g.style.variant * UNDERCOATS.len() as f32) as usize).min(UNDERCOATS.len() - 1)];
+        let wear = 0.9 + 0.1 * mottle;
+        c = mix3(coat.map(|v| v * wear), c, 0.25 * stain);
+    }
     let fine = g.layer(8).fbm(x, y, 1.5, 2, 0.5);
     c = c.map(|v| v * (1.0 + 0.07 * grain + 0.08 * fine));
     [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
 }
+
+/// Onset above which [`peeling`]'s bared texel still shows the older coat.
+const UNDERCOAT_FROM: f32 = 0.3;
+
+/// The older coats under [`peeling`]'s paint (sRGB), one per style
+/// variant: red-oxide primer, grey primer, an old cream coat.
+const UNDERCOATS: [[f32; 3]; 3] = [[0.50, 0.24, 0.16], [0.56, 0.56, 0.54], [0.78, 0.75, 0.66]];
 
 /// Cracked paint or plaster: a warped cellular crack network (exact
 /// Voronoi edges), large cells split by a finer network in places, crack
@@ -431,6 +462,10 @@ const STONE_FRACTURES: f32 = 0.55;
 /// crack's colour is measured against when it darkens a photo.
 pub const CRACKED_SURFACE: [f32; 3] = [0.72, 0.69, 0.64];
 
+/// Moss cover under which [`mossy`]'s texel is bare ground that never
+/// grows: a per-texel random level in this range.
+const BARE_GROUND: (f32, f32) = (0.1, 0.55);
+
 /// Moss: cushions of tiny bumps (cellular noise at 3-4 px: lit yellow-green
 /// tips, dark green gaps) in clumps from warped fBm, darker where a clump
 /// thins out, over dark soil; each cushion is lit from the top left and
@@ -462,7 +497,13 @@ fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let c = mix3(soil, moss.map(|v| v * relief), cover);
     let ragged = g.layer(4).fbm(x, y, 2.5, 2, 0.5);
     let onset = 0.5 - 0.55 * clump + 0.14 * ragged;
-    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
+    // Bare ground between the cushions never grows: the photo's surface
+    // shows there (drawn soil read as dirt holes inside the moss). The
+    // cushion thins out towards it tip by tip (a cut at one cover level
+    // drew holes with clean, sticker-like edges).
+    let bare = BARE_GROUND.0 + (BARE_GROUND.1 - BARE_GROUND.0) * g.layer(12).white(x as i32, y as i32);
+    let onset = if cover < bare { NEVER } else { onset.clamp(0.02, 0.95) };
+    [c[0], c[1], c[2], onset]
 }
 
 #[cfg(test)]
