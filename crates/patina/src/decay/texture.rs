@@ -387,11 +387,18 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     // An older coat under the paint: the chips bared last (the highest
     // onsets, at a patch's fringe) still carry it, chipped in its own
     // cells; the metal shows where the patch opened first.
-    let chip = g.layer(11).worley(x, y, 5.0 * s);
-    if onset + 0.16 * (chip.id - 0.5) > UNDERCOAT_FROM {
+    let coated = |x: f32, y: f32| (onset + 0.16 * (g.layer(11).worley(x, y, 5.0 * s).id - 0.5) > UNDERCOAT_FROM) as u8 as f32;
+    // A chip's border is anti-aliased: 4 samples a quarter pixel apart
+    // where it passes within a pixel.
+    let coat_share = if g.layer(11).worley(x, y, 5.0 * s).border() < 1.0 {
+        0.25 * [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)].iter().map(|(dx, dy)| coated(x + dx, y + dy)).sum::<f32>()
+    } else {
+        coated(x, y)
+    };
+    if coat_share > 0.0 {
         let coat = UNDERCOATS[((g.style.variant * UNDERCOATS.len() as f32) as usize).min(UNDERCOATS.len() - 1)];
         let wear = 0.9 + 0.1 * mottle;
-        c = mix3(coat.map(|v| v * wear), c, 0.25 * stain);
+        c = mix3(c, mix3(coat.map(|v| v * wear), c, 0.25 * stain), coat_share);
     }
     let fine = g.layer(8).fbm(x, y, 1.5, 2, 0.5);
     c = c.map(|v| v * (1.0 + 0.07 * grain + 0.08 * fine));
@@ -462,10 +469,6 @@ const STONE_FRACTURES: f32 = 0.55;
 /// crack's colour is measured against when it darkens a photo.
 pub const CRACKED_SURFACE: [f32; 3] = [0.72, 0.69, 0.64];
 
-/// Moss cover under which [`mossy`]'s texel is bare ground that never
-/// grows: a per-texel random level in this range.
-const BARE_GROUND: (f32, f32) = (0.1, 0.55);
-
 /// Moss: cushions of tiny bumps (cellular noise at 3-4 px: lit yellow-green
 /// tips, dark green gaps) in clumps from warped fBm, darker where a clump
 /// thins out, over dark soil; each cushion is lit from the top left and
@@ -497,13 +500,7 @@ fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let c = mix3(soil, moss.map(|v| v * relief), cover);
     let ragged = g.layer(4).fbm(x, y, 2.5, 2, 0.5);
     let onset = 0.5 - 0.55 * clump + 0.14 * ragged;
-    // Bare ground between the cushions never grows: the photo's surface
-    // shows there (drawn soil read as dirt holes inside the moss). The
-    // cushion thins out towards it tip by tip (a cut at one cover level
-    // drew holes with clean, sticker-like edges).
-    let bare = BARE_GROUND.0 + (BARE_GROUND.1 - BARE_GROUND.0) * g.layer(12).white(x as i32, y as i32);
-    let onset = if cover < bare { NEVER } else { onset.clamp(0.02, 0.95) };
-    [c[0], c[1], c[2], onset]
+    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
 }
 
 #[cfg(test)]
