@@ -758,3 +758,45 @@ fn moss_and_rust_fill_the_grooves_first() {
     let (groove, face) = share(DecayClass::Cracked);
     assert!(groove < 3.0 * face + 0.05, "cracked prefers the grooves: {groove} vs {face}");
 }
+
+/// The decay replaces the object's share of its part-covered silhouette
+/// pixels: a blue disc on grey, fully rusted, keeps no line of blue paint
+/// along its outline (the outermost object pixels are no bluer than the
+/// rust a few pixels inside mixed with the grey outside).
+#[test]
+fn no_line_of_the_objects_paint_is_left_along_the_silhouette() {
+    let (w, h) = (96usize, 96usize);
+    let inside = |x: usize, y: usize| (x as f32 - 48.0).powi(2) + (y as f32 - 48.0).powi(2) < 900.0;
+    let mask = Mask::from_fn(w, h, inside);
+    let input = Image::from_fn(w, h, 3, |x, y, p| {
+        // The photo's own silhouette is anti-aliased: a part of the grey shows on the outermost pixels.
+        let edge = mask.get(x, y)
+            && [(1, 0), (0, 1), (2, 1), (1, 2)].iter().any(|&(dx, dy)| !inside((x + dx).saturating_sub(1), (y + dy).saturating_sub(1)));
+        let blue = [0.1, 0.2, 0.7];
+        let grey = [0.5, 0.5, 0.5];
+        let c = if !mask.get(x, y) {
+            grey
+        } else if edge {
+            [0, 1, 2].map(|k| 0.6 * blue[k] + 0.4 * grey[k])
+        } else {
+            blue
+        };
+        p.copy_from_slice(&c);
+    });
+    let full = Image::from_fn(w, h, 1, |_, _, p| p[0] = 1.0);
+    let inputs = Inputs { mask: Some(&mask), degree: Some(&full), ..Default::default() };
+    let prep = decay::prepare(&input, inputs, &DecayParams::new(DecayClass::Rust), 2).unwrap();
+    let out = to_lab(&decay::sequence(&prep, 1, 2, None).unwrap()[0].image);
+    let edge = edge_coverage(&mask).unwrap();
+    let (mut sum, mut n) = (0f32, 0);
+    for i in 0..w * h {
+        if edge.data()[i] > 0.0 && edge.data()[i] < 1.0 {
+            sum += out.data()[i * 3 + 2];
+            n += 1;
+        }
+    }
+    let edge_b = sum / n as f32;
+    // The paint is at b* -60 and rust positive; scaling the decay by the
+    // coverage alone left b* -18 on the outline.
+    assert!(n > 50 && edge_b > -12.0, "the outline keeps the blue paint: mean b* {edge_b} over {n} pixels");
+}

@@ -312,6 +312,25 @@ pub fn edge_coverage(mask: &Mask) -> Option<Image> {
     Some(soft)
 }
 
+/// The object's own colour (Lab) on the pixels of its silhouette that it
+/// only part covers (`coverage` in (0, 1)): the mean of the fully covered
+/// pixels nearby (a normalised convolution at 1.5 px), or the pixel's own
+/// colour where none is near. Elsewhere the photo's colour.
+fn object_colour_at_edge(photo_lab: &Image, coverage: &Image) -> Image {
+    let full = coverage.map(|c| (c >= 1.0) as u8 as f32);
+    let mut held = photo_lab.clone();
+    held.data_mut().chunks_exact_mut(3).zip(full.data()).for_each(|(px, &m)| px.iter_mut().for_each(|v| *v *= m));
+    let (num, den) = (gaussian_blur(&held, 1.5), gaussian_blur(&full, 1.5));
+    let mut out = photo_lab.clone();
+    out.data_mut().chunks_exact_mut(3).enumerate().for_each(|(i, px)| {
+        let (c, d) = (coverage.data()[i], den.data()[i]);
+        if c > 0.0 && c < 1.0 && d > 1e-3 {
+            px.copy_from_slice(&[0, 1, 2].map(|k| num.data()[i * 3 + k] / d));
+        }
+    });
+    out
+}
+
 /// Reach (Gaussian sigma, pixels) of [`carried_past_the_edge`].
 const CARRY: f32 = 2.0;
 
@@ -370,6 +389,7 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
     }
     let lighting =
         if channels >= 3 { layer::factor(relief_weight.as_ref().unwrap_or(&opacity), degree, &layers.relief, layers.light) } else { None };
+    let body = layers.coverage.filter(|_| channels >= 3).map(|c| object_colour_at_edge(photo_lab, c));
     let mut out = photo.clone();
     out.data_mut().par_chunks_mut(w * channels).enumerate().for_each(|(y, row)| {
         for (x, px) in row.chunks_exact_mut(channels).enumerate() {
@@ -395,7 +415,15 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
             // layer's own relief lights texture and photo alike.
             let s = layers.shading.data()[i].cbrt();
             let r = lit.cbrt();
-            let lab = [0, 1, 2].map(|c| r * (wt * t[c] * s + (1.0 - wt) * p[c]));
+            // On the silhouette's part-covered pixels the decay replaces the
+            // object's share of the pixel, not a share of the pixel as a
+            // whole (which left a line of the object's paint, or a pale rim
+            // of white stone, along the outline): O = P + w (T s - object).
+            let q = match (&body, layers.coverage) {
+                (Some(body), Some(cov)) if cov.data()[i] < 1.0 => &body.data()[i * 3..i * 3 + 3],
+                _ => p,
+            };
+            let lab = [0, 1, 2].map(|c| r * (p[c] + wt * (t[c] * s - q[c])));
             let rgb = lab_pixel_to_srgb(lab);
             for c in 0..3 {
                 px[c] = rgb[c].clamp(0.0, 1.0);
