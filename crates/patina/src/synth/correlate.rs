@@ -68,7 +68,10 @@ impl Plans {
     /// origin of an fw x fh zero image.
     fn forward(&self, values: &[f32], kw: usize, kh: usize, out: &mut [C32], scratch: &mut Scratch) {
         let cols = self.cols();
-        out.iter_mut().for_each(|v| *v = C32::new(0.0, 0.0));
+        // Rows from kh on stay zero; the others are all written below.
+        for column in out.chunks_exact_mut(self.fh) {
+            column[kh.min(self.fh)..].iter_mut().for_each(|v| *v = C32::new(0.0, 0.0));
+        }
         for y in 0..kh {
             scratch.row.iter_mut().for_each(|v| *v = 0.0);
             scratch.row[..kw].copy_from_slice(&values[y * kw..(y + 1) * kw]);
@@ -348,17 +351,77 @@ pub fn autocorrelation(source: &Image, weights: &[f32]) -> (Vec<f32>, usize, usi
 
 /// Exact masked weighted SSD of `template` (kw x kh) at source position (sx, sy).
 pub fn masked_ssd(source: &Image, weights: &[f32], template: &[f32], mask: &[f32], kw: usize, kh: usize, sx: usize, sy: usize) -> f32 {
-    let n = source.channels();
+    // The channel count as a constant where it is common, so the inner
+    // sum unrolls; the summation order is the same for every count.
+    match source.channels() {
+        1 => masked_ssd_n::<1>(source, weights, template, mask, kw, kh, sx, sy),
+        3 => masked_ssd_n::<3>(source, weights, template, mask, kw, kh, sx, sy),
+        4 => masked_ssd_n::<4>(source, weights, template, mask, kw, kh, sx, sy),
+        n => masked_ssd_dyn(n, source, weights, template, mask, kw, kh, sx, sy),
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn masked_ssd_n<const N: usize>(
+    source: &Image,
+    weights: &[f32],
+    template: &[f32],
+    mask: &[f32],
+    kw: usize,
+    kh: usize,
+    sx: usize,
+    sy: usize,
+) -> f32 {
+    let w: [f32; N] = weights.try_into().expect("one weight per channel");
+    let sw = source.width();
     let mut sum = 0.0;
     for y in 0..kh {
-        for x in 0..kw {
-            let m = mask[y * kw + x];
-            if m == 0.0 {
+        let s0 = ((sy + y) * sw + sx) * N;
+        let srow = &source.data()[s0..s0 + kw * N];
+        let trow = &template[y * kw * N..(y + 1) * kw * N];
+        for ((m, s), t) in mask[y * kw..(y + 1) * kw].iter().zip(srow.chunks_exact(N)).zip(trow.chunks_exact(N)) {
+            if *m == 0.0 {
                 continue;
             }
-            let s = source.pixel(sx + x, sy + y);
-            let t = &template[(y * kw + x) * n..(y * kw + x + 1) * n];
-            let d: f32 = (0..n).map(|c| weights[c] * (t[c] - s[c]).powi(2)).sum();
+            let mut d = 0.0f32;
+            for c in 0..N {
+                let e = t[c] - s[c];
+                d += w[c] * (e * e);
+            }
+            sum += m * d;
+        }
+    }
+    sum
+}
+
+#[allow(clippy::too_many_arguments)]
+fn masked_ssd_dyn(
+    n: usize,
+    source: &Image,
+    weights: &[f32],
+    template: &[f32],
+    mask: &[f32],
+    kw: usize,
+    kh: usize,
+    sx: usize,
+    sy: usize,
+) -> f32 {
+    let sw = source.width();
+    let mut sum = 0.0;
+    for y in 0..kh {
+        let s0 = ((sy + y) * sw + sx) * n;
+        let srow = &source.data()[s0..s0 + kw * n];
+        let trow = &template[y * kw * n..(y + 1) * kw * n];
+        for ((m, s), t) in mask[y * kw..(y + 1) * kw].iter().zip(srow.chunks_exact(n)).zip(trow.chunks_exact(n)) {
+            if *m == 0.0 {
+                continue;
+            }
+            let mut d = 0.0f32;
+            for c in 0..n {
+                let e = t[c] - s[c];
+                d += weights[c] * (e * e);
+            }
             sum += m * d;
         }
     }

@@ -1060,16 +1060,23 @@ impl Pass<'_> {
         widen: bool,
         g: &mut impl Rng,
     ) -> (usize, usize) {
+        // Local minima: no cost in the 3 x 3 neighbourhood (clipped to the
+        // map) is below the centre's. The own row is tested first, which
+        // rejects most placements after one or two reads.
         let mut minima: Vec<(f32, usize)> = Vec::new();
+        let at_least = |row: &[f32], c: f32| row.iter().all(|&v| v >= c);
         for y in 0..vh {
-            for x in 0..vw {
-                let c = costs[y * vw + x];
+            let row = &costs[y * vw..(y + 1) * vw];
+            let (above, below) = (y.checked_sub(1).map(|a| &costs[a * vw..(a + 1) * vw]), costs.get((y + 1) * vw..(y + 2) * vw));
+            for (x, &c) in row.iter().enumerate() {
                 if c == f32::INFINITY {
                     continue;
                 }
-                let is_min = (y.saturating_sub(1)..=(y + 1).min(vh - 1))
-                    .all(|yy| (x.saturating_sub(1)..=(x + 1).min(vw - 1)).all(|xx| costs[yy * vw + xx] >= c));
-                if is_min {
+                let span = x.saturating_sub(1)..(x + 2).min(vw);
+                if at_least(&row[span.clone()], c)
+                    && above.is_none_or(|r| at_least(&r[span.clone()], c))
+                    && below.is_none_or(|r| at_least(&r[span], c))
+                {
                     minima.push((c, y * vw + x));
                 }
             }
