@@ -1061,25 +1061,39 @@ impl Pass<'_> {
         g: &mut impl Rng,
     ) -> (usize, usize) {
         // Local minima: no cost in the 3 x 3 neighbourhood (clipped to the
-        // map) is below the centre's. The own row is tested first, which
-        // rejects most placements after one or two reads.
+        // map) is below the centre's, i.e. the neighbourhood's minimum is
+        // not (costs are never NaN). The minimum is separable: each row's
+        // minimum over x - 1..=x + 1 once, then over three such rows.
         let mut minima: Vec<(f32, usize)> = Vec::new();
-        let at_least = |row: &[f32], c: f32| row.iter().all(|&v| v >= c);
-        for y in 0..vh {
+        let across = |y: usize, out: &mut Vec<f32>| {
             let row = &costs[y * vw..(y + 1) * vw];
-            let (above, below) = (y.checked_sub(1).map(|a| &costs[a * vw..(a + 1) * vw]), costs.get((y + 1) * vw..(y + 2) * vw));
+            out.clear();
+            out.extend((0..vw).map(|x| {
+                let m = row[x].min(row[x.saturating_sub(1)]);
+                m.min(row[(x + 1).min(vw - 1)])
+            }));
+        };
+        let (mut above, mut here, mut below) = (Vec::with_capacity(vw), Vec::with_capacity(vw), Vec::with_capacity(vw));
+        across(0, &mut here);
+        for y in 0..vh {
+            if y + 1 < vh {
+                across(y + 1, &mut below);
+            }
+            let row = &costs[y * vw..(y + 1) * vw];
             for (x, &c) in row.iter().enumerate() {
-                if c == f32::INFINITY {
-                    continue;
+                let mut m = here[x];
+                if y > 0 {
+                    m = m.min(above[x]);
                 }
-                let span = x.saturating_sub(1)..(x + 2).min(vw);
-                if at_least(&row[span.clone()], c)
-                    && above.is_none_or(|r| at_least(&r[span.clone()], c))
-                    && below.is_none_or(|r| at_least(&r[span], c))
-                {
+                if y + 1 < vh {
+                    m = m.min(below[x]);
+                }
+                if m >= c && c != f32::INFINITY {
                     minima.push((c, y * vw + x));
                 }
             }
+            std::mem::swap(&mut above, &mut here);
+            std::mem::swap(&mut here, &mut below);
         }
         let order = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         minima.sort_by(order);
