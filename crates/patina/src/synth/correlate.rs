@@ -276,7 +276,10 @@ impl SpectralSource {
                 let t = template[i * n + c];
                 let m = mask.map_or(1.0, |m| m[i]);
                 *v = m * t;
-                q.constant += (scale * wc * m * t * t) as f64;
+                // A zero weight adds exactly 0 to the constant.
+                if m != 0.0 {
+                    q.constant += (scale * wc * m * t * t) as f64;
+                }
             }
             self.plans.forward(&q.values, q.kw, q.kh, &mut q.kernel, &mut q.scratch);
             let f = -2.0 * scale * wc;

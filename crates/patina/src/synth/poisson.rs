@@ -238,17 +238,32 @@ fn gauss_seidel(level: &mut Level, halo: &mut [f32], s: f32, lambda: f32) {
                 let up = if r > 0 { &before[(r - 1) * w..] } else { above };
                 let down = if r + 1 < rows { &after[..w] } else { below };
                 let interior_row = y > 0 && y + 1 < h && w >= 3;
-                for x in (first..w).step_by(2) {
-                    if interior_row && x > 0 && x + 1 < w {
+                // Each pixel of this colour reads only the other colour,
+                // so the order within the row does not matter: inside a
+                // row without bounds tests, the ends (and the first and
+                // last rows) with them.
+                let edge = |x: usize, mid: &mut [f32]| {
+                    let (sum, n) = edge_sum([
+                        (x > 0).then(|| mid[x - 1]),
+                        (x + 1 < w).then(|| mid[x + 1]),
+                        (y > 0).then(|| up[x]),
+                        (y + 1 < h).then(|| down[x]),
+                    ]);
+                    mid[x] = (brow[x] + s * sum) / (s * n + lambda);
+                };
+                if interior_row {
+                    for x in (2 - first..w - 1).step_by(2) {
                         mid[x] = (brow[x] + s * (mid[x - 1] + mid[x + 1] + up[x] + down[x])) * inner;
-                    } else {
-                        let (sum, n) = edge_sum([
-                            (x > 0).then(|| mid[x - 1]),
-                            (x + 1 < w).then(|| mid[x + 1]),
-                            (y > 0).then(|| up[x]),
-                            (y + 1 < h).then(|| down[x]),
-                        ]);
-                        mid[x] = (brow[x] + s * sum) / (s * n + lambda);
+                    }
+                    if first == 0 {
+                        edge(0, mid);
+                    }
+                    if (w - 1) % 2 == first {
+                        edge(w - 1, mid);
+                    }
+                } else {
+                    for x in (first..w).step_by(2) {
+                        edge(x, mid);
                     }
                 }
             }
