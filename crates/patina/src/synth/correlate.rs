@@ -436,6 +436,30 @@ mod tests {
     use super::*;
 
     #[test]
+    fn masked_ssd_is_the_weighted_sum_for_every_channel_count() {
+        for n in 1..=5 {
+            let src = Image::from_fn(13, 11, n, |x, y, p| {
+                p.iter_mut().enumerate().for_each(|(c, v)| *v = ((x * 7 + y * 3 + c * 5) % 9) as f32 / 9.0)
+            });
+            let (kw, kh, sx, sy) = (5, 4, 6, 3);
+            let template: Vec<f32> = (0..kw * kh * n).map(|i| ((i * 29) % 23) as f32 / 23.0).collect();
+            let mask: Vec<f32> = (0..kw * kh).map(|i| [0.0, 1.0, 0.5][i % 3]).collect();
+            let weights: Vec<f32> = (0..n).map(|c| 0.2 + 0.1 * c as f32).collect();
+            let mut want = 0.0f64;
+            for y in 0..kh {
+                for x in 0..kw {
+                    for c in 0..n {
+                        let d = (template[(y * kw + x) * n + c] - src.pixel(sx + x, sy + y)[c]) as f64;
+                        want += (mask[y * kw + x] * weights[c]) as f64 * d * d;
+                    }
+                }
+            }
+            let got = masked_ssd(&src, &weights, &template, &mask, kw, kh, sx, sy) as f64;
+            assert!((got - want).abs() < 1e-5 * (1.0 + want), "{n} channels: {got} vs {want}");
+        }
+    }
+
+    #[test]
     fn fft_costs_match_direct_sums_on_odd_sizes() {
         let src = Image::from_fn(37, 29, 2, |x, y, p| {
             p[0] = ((x * 13 + y * 7) % 11) as f32 / 11.0;

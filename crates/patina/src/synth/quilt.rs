@@ -1060,41 +1060,7 @@ impl Pass<'_> {
         widen: bool,
         g: &mut impl Rng,
     ) -> (usize, usize) {
-        // Local minima: no cost in the 3 x 3 neighbourhood (clipped to the
-        // map) is below the centre's, i.e. the neighbourhood's minimum is
-        // not (costs are never NaN). The minimum is separable: each row's
-        // minimum over x - 1..=x + 1 once, then over three such rows.
-        let mut minima: Vec<(f32, usize)> = Vec::new();
-        let across = |y: usize, out: &mut Vec<f32>| {
-            let row = &costs[y * vw..(y + 1) * vw];
-            out.clear();
-            out.extend((0..vw).map(|x| {
-                let m = row[x].min(row[x.saturating_sub(1)]);
-                m.min(row[(x + 1).min(vw - 1)])
-            }));
-        };
-        let (mut above, mut here, mut below) = (Vec::with_capacity(vw), Vec::with_capacity(vw), Vec::with_capacity(vw));
-        across(0, &mut here);
-        for y in 0..vh {
-            if y + 1 < vh {
-                across(y + 1, &mut below);
-            }
-            let row = &costs[y * vw..(y + 1) * vw];
-            for (x, &c) in row.iter().enumerate() {
-                let mut m = here[x];
-                if y > 0 {
-                    m = m.min(above[x]);
-                }
-                if y + 1 < vh {
-                    m = m.min(below[x]);
-                }
-                if m >= c && c != f32::INFINITY {
-                    minima.push((c, y * vw + x));
-                }
-            }
-            std::mem::swap(&mut above, &mut here);
-            std::mem::swap(&mut here, &mut below);
-        }
+        let mut minima = local_minima(costs, vw, vh);
         let order = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         minima.sort_by(order);
         let k = self.params.min_candidates.max(1);
@@ -1183,6 +1149,46 @@ impl Pass<'_> {
         }
         keep
     }
+}
+
+/// The finite local minima of a `vw` x `vh` cost map, as (cost, index) in
+/// raster order: no cost in the 3 x 3 neighbourhood (clipped to the map) is
+/// below the centre's, i.e. the neighbourhood's minimum is not (costs are
+/// never NaN). The minimum is separable: each row's minimum over
+/// x - 1..=x + 1 once, then over three such rows.
+fn local_minima(costs: &[f32], vw: usize, vh: usize) -> Vec<(f32, usize)> {
+    let mut minima: Vec<(f32, usize)> = Vec::new();
+    let across = |y: usize, out: &mut Vec<f32>| {
+        let row = &costs[y * vw..(y + 1) * vw];
+        out.clear();
+        out.extend((0..vw).map(|x| {
+            let m = row[x].min(row[x.saturating_sub(1)]);
+            m.min(row[(x + 1).min(vw - 1)])
+        }));
+    };
+    let (mut above, mut here, mut below) = (Vec::with_capacity(vw), Vec::with_capacity(vw), Vec::with_capacity(vw));
+    across(0, &mut here);
+    for y in 0..vh {
+        if y + 1 < vh {
+            across(y + 1, &mut below);
+        }
+        let row = &costs[y * vw..(y + 1) * vw];
+        for (x, &c) in row.iter().enumerate() {
+            let mut m = here[x];
+            if y > 0 {
+                m = m.min(above[x]);
+            }
+            if y + 1 < vh {
+                m = m.min(below[x]);
+            }
+            if m >= c && c != f32::INFINITY {
+                minima.push((c, y * vw + x));
+            }
+        }
+        std::mem::swap(&mut above, &mut here);
+        std::mem::swap(&mut here, &mut below);
+    }
+    minima
 }
 
 /// Refuse (cost infinite) every placement whose shift from the canvas
@@ -1426,6 +1432,31 @@ mod tests {
             let (shared, total) =
                 rows.windows(2).fold((0, 0), |(s, t), w| (s + w[1].iter().filter(|x| w[0].contains(x)).count(), t + w[1].len()));
             assert!(shared * 5 < total, "seed {seed}: {shared} of {total} block edges continue the row above's");
+        }
+    }
+
+    #[test]
+    fn local_minima_are_those_no_neighbour_undercuts() {
+        // Random maps on a few levels (so ties are common), with refused
+        // placements, against the definition read off directly.
+        let mut g = rng::generator(11, &[]);
+        for (vw, vh) in [(1, 1), (1, 7), (6, 1), (2, 2), (17, 13)] {
+            let costs: Vec<f32> = (0..vw * vh)
+                .map(|_| match g.gen_range(0..6) {
+                    0 => f32::INFINITY,
+                    k => k as f32,
+                })
+                .collect();
+            let want: Vec<(f32, usize)> = (0..vw * vh)
+                .filter(|&i| {
+                    let (x, y, c) = (i % vw, i / vw, costs[i]);
+                    c != f32::INFINITY
+                        && (y.saturating_sub(1)..=(y + 1).min(vh - 1))
+                            .all(|yy| (x.saturating_sub(1)..=(x + 1).min(vw - 1)).all(|xx| costs[yy * vw + xx] >= c))
+                })
+                .map(|i| (costs[i], i))
+                .collect();
+            assert_eq!(local_minima(&costs, vw, vh), want, "{vw}x{vh}");
         }
     }
 
