@@ -389,17 +389,28 @@ fn canvas_size(w: usize, h: usize, block: (usize, usize), overlap: (usize, usize
 
 fn paste(canvas: &mut Image, source: &Image, p: &Placement, (bw, bh): (usize, usize)) {
     let n = source.channels();
+    let (cw, ch) = canvas.size();
+    let sw = source.width();
     for y in 0..bh {
-        for x in 0..bw {
-            let k = p.keep[y * bw + x];
-            if k == 0.0 {
-                continue;
+        let keep = &p.keep[y * bw..(y + 1) * bw];
+        let s0 = ((p.source_y + y) * sw + p.source_x) * n;
+        let srow = &source.data()[s0..s0 + bw * n];
+        let cy = (p.y + y) % ch;
+        if p.x + bw <= cw {
+            // The whole block row lies inside the canvas row: slices.
+            let d0 = (cy * cw + p.x) * n;
+            let drow = &mut canvas.data_mut()[d0..d0 + bw * n];
+            for ((&k, s), d) in keep.iter().zip(srow.chunks_exact(n)).zip(drow.chunks_exact_mut(n)) {
+                if k != 0.0 {
+                    d.iter_mut().zip(s).for_each(|(d, s)| *d = k * s + (1.0 - k) * *d);
+                }
             }
-            let s = source.pixel(p.source_x + x, p.source_y + y);
-            let (cw, ch) = canvas.size();
-            let d = canvas.pixel_mut((p.x + x) % cw, (p.y + y) % ch);
-            for c in 0..n {
-                d[c] = k * s[c] + (1.0 - k) * d[c];
+        } else {
+            for (x, (&k, s)) in keep.iter().zip(srow.chunks_exact(n)).enumerate() {
+                if k != 0.0 {
+                    let d = canvas.pixel_mut((p.x + x) % cw, cy);
+                    d.iter_mut().zip(s).for_each(|(d, s)| *d = k * s + (1.0 - k) * *d);
+                }
             }
         }
     }
