@@ -354,52 +354,20 @@ pub fn autocorrelation(source: &Image, weights: &[f32]) -> (Vec<f32>, usize, usi
 
 /// Exact masked weighted SSD of `template` (kw x kh) at source position (sx, sy).
 pub fn masked_ssd(source: &Image, weights: &[f32], template: &[f32], mask: &[f32], kw: usize, kh: usize, sx: usize, sy: usize) -> f32 {
-    // The channel count as a constant where it is common, so the inner
-    // sum unrolls; the summation order is the same for every count.
+    // The common channel counts as constants: the body is inlined into
+    // each arm, so its inner sum unrolls. The summation order is the same
+    // for every count.
     match source.channels() {
-        1 => masked_ssd_n::<1>(source, weights, template, mask, kw, kh, sx, sy),
-        3 => masked_ssd_n::<3>(source, weights, template, mask, kw, kh, sx, sy),
-        4 => masked_ssd_n::<4>(source, weights, template, mask, kw, kh, sx, sy),
-        n => masked_ssd_dyn(n, source, weights, template, mask, kw, kh, sx, sy),
+        1 => masked_ssd_of(1, source, weights, template, mask, kw, kh, sx, sy),
+        3 => masked_ssd_of(3, source, weights, template, mask, kw, kh, sx, sy),
+        4 => masked_ssd_of(4, source, weights, template, mask, kw, kh, sx, sy),
+        n => masked_ssd_of(n, source, weights, template, mask, kw, kh, sx, sy),
     }
 }
 
 #[allow(clippy::too_many_arguments)]
-#[inline]
-fn masked_ssd_n<const N: usize>(
-    source: &Image,
-    weights: &[f32],
-    template: &[f32],
-    mask: &[f32],
-    kw: usize,
-    kh: usize,
-    sx: usize,
-    sy: usize,
-) -> f32 {
-    let w: [f32; N] = weights.try_into().expect("one weight per channel");
-    let sw = source.width();
-    let mut sum = 0.0;
-    for y in 0..kh {
-        let s0 = ((sy + y) * sw + sx) * N;
-        let srow = &source.data()[s0..s0 + kw * N];
-        let trow = &template[y * kw * N..(y + 1) * kw * N];
-        for ((m, s), t) in mask[y * kw..(y + 1) * kw].iter().zip(srow.chunks_exact(N)).zip(trow.chunks_exact(N)) {
-            if *m == 0.0 {
-                continue;
-            }
-            let mut d = 0.0f32;
-            for c in 0..N {
-                let e = t[c] - s[c];
-                d += w[c] * (e * e);
-            }
-            sum += m * d;
-        }
-    }
-    sum
-}
-
-#[allow(clippy::too_many_arguments)]
-fn masked_ssd_dyn(
+#[inline(always)]
+fn masked_ssd_of(
     n: usize,
     source: &Image,
     weights: &[f32],
@@ -410,6 +378,7 @@ fn masked_ssd_dyn(
     sx: usize,
     sy: usize,
 ) -> f32 {
+    let weights = &weights[..n];
     let sw = source.width();
     let mut sum = 0.0;
     for y in 0..kh {
@@ -421,9 +390,9 @@ fn masked_ssd_dyn(
                 continue;
             }
             let mut d = 0.0f32;
-            for c in 0..n {
-                let e = t[c] - s[c];
-                d += weights[c] * (e * e);
+            for ((w, t), s) in weights.iter().zip(t).zip(s) {
+                let e = t - s;
+                d += w * (e * e);
             }
             sum += m * d;
         }
