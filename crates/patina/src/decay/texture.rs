@@ -387,13 +387,18 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     // An older coat under the paint: the chips bared last (the highest
     // onsets, at a patch's fringe) still carry it, chipped in its own
     // cells; the metal shows where the patch opened first.
-    let coated = |x: f32, y: f32| (onset + 0.16 * (g.layer(11).worley(x, y, 5.0 * s).id - 0.5) > UNDERCOAT_FROM) as u8 as f32;
+    let chips = g.layer(11);
+    let coated = |id: f32| (onset + 0.16 * (id - 0.5) > UNDERCOAT_FROM) as u8 as f32;
+    let chip = chips.worley(x, y, 5.0 * s);
     // A chip's border is anti-aliased: 4 samples a quarter pixel apart
     // where it passes within a pixel.
-    let coat_share = if g.layer(11).worley(x, y, 5.0 * s).border() < 1.0 {
-        0.25 * [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)].iter().map(|(dx, dy)| coated(x + dx, y + dy)).sum::<f32>()
+    let coat_share = if chip.border() < 1.0 {
+        0.25 * [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)]
+            .iter()
+            .map(|(dx, dy)| coated(chips.worley(x + dx, y + dy, 5.0 * s).id))
+            .sum::<f32>()
     } else {
-        coated(x, y)
+        coated(chip.id)
     };
     if coat_share > 0.0 {
         let coat = UNDERCOATS[((g.style.variant * UNDERCOATS.len() as f32) as usize).min(UNDERCOATS.len() - 1)];
