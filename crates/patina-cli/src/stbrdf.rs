@@ -173,6 +173,15 @@ pub struct TransferArgs {
     /// material's own pace (the share covered at each time is the source's; a time-lapse's pace is often its camera's).
     #[arg(long, value_enum, default_value_t = TempoArg::Even)]
     pub tempo: TempoArg,
+    /// grow: how strongly the material gathers in patches over the object (areas where the coat failed first take
+    /// most of it, others stay nearly clean), in units of a texel's own strength; 0 spreads it evenly but for where
+    /// water stands and the target's chips.
+    #[arg(long, default_value_t = transfer::CLUSTERING, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    pub clustering: f32,
+    /// The material's size on the target: 0.5 draws its features (spots, grain) at half the size they have in the
+    /// material, 2 at twice (its coefficients resampled, exact at every time).
+    #[arg(long, default_value_t = 1.0, value_parser = |s: &str| crate::flags::number(s, 0.05, 8.0))]
+    pub scale: f32,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -465,6 +474,8 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
             TempoArg::Source => transfer::Tempo::Source,
             TempoArg::Even => transfer::Tempo::Even,
         },
+        clustering: args.clustering,
+        scale: args.scale,
         ..Default::default()
     };
     let moved = with_bar("transfer", |report| transfer::transfer(&material, &target, mask.as_ref(), &params, args.seed, Some(report)))?;

@@ -51,6 +51,11 @@
 //!   - With a mask, wet places (the object's bottom and rims) take more
 //!     of the material ([`WET_CHOICE`]) and are reached first
 //!     ([`WET_LEAD`]), so the rust climbs the object and gathers low.
+//!   - The material gathers in patches ([`clusters`]: a noise field, as
+//!     decay's degree maps are), which take it first and most, so it does
+//!     not lie at the capture's density over the whole object.
+//!   - [`TransferParams::scale`] draws the material's features larger or
+//!     smaller on the target ([`Material::scaled`]).
 //!   - What has arrived glazes the target around it and runs down below
 //!     it in streaks ([`stain`], [`TransferParams::halo`] and
 //!     [`TransferParams::runoff`]), and stands proud of it: its upper edge
@@ -143,6 +148,13 @@ pub struct TransferParams {
     pub runoff: f32,
     /// [`Mode::Grow`]: how the covered share grows over time.
     pub tempo: Tempo,
+    /// [`Mode::Grow`]: how strongly the material gathers in patches over
+    /// the object ([`clusters`]); 0 spreads it evenly (but for where water
+    /// stands and the target's chips).
+    pub clustering: f32,
+    /// The material's size on the target: 0.5 draws its features at half
+    /// their captured size ([`Material::scaled`]).
+    pub scale: f32,
     pub optimize: OptimizeParams,
 }
 
@@ -172,6 +184,10 @@ pub enum Tempo {
 pub const HALO: f32 = 3.0;
 /// [`TransferParams::runoff`]'s default.
 pub const RUNOFF: f32 = 40.0;
+/// The smallest side of a material drawn at [`TransferParams::scale`].
+const MIN_SCALED_SIDE: usize = 16;
+/// [`TransferParams::clustering`]'s default.
+pub const CLUSTERING: f32 = 1.0;
 
 /// [`Mode::Grow`]'s default guide weight. Stronger guides copied fewer and
 /// fewer spots (at 0.5, a third fewer changed at t = 1 on the hydrant) and
@@ -196,6 +212,8 @@ impl Default for TransferParams {
             halo: HALO,
             runoff: RUNOFF,
             tempo: Tempo::default(),
+            clustering: CLUSTERING,
+            scale: 1.0,
             optimize: OptimizeParams::default(),
         }
     }
@@ -225,6 +243,23 @@ pub fn transfer(
     if !(0.0..=1.0).contains(&t0) {
         return Err(Error::invalid(format!("t0 must be in [0, 1], got {t0}")));
     }
+    if !(params.clustering.is_finite() && params.clustering >= 0.0) {
+        return Err(Error::invalid(format!("the clustering must be a number >= 0, got {}", params.clustering)));
+    }
+    let resized;
+    let material = if params.scale == 1.0 {
+        material
+    } else {
+        resized = material.scaled(params.scale)?;
+        let (w, h) = resized.size();
+        if w.min(h) < MIN_SCALED_SIDE {
+            return Err(Error::invalid(format!(
+                "at scale {} the material is {w}x{h}, under the {MIN_SCALED_SIDE} px a side its synthesis needs",
+                params.scale
+            )));
+        }
+        &resized
+    };
     let kd =
         material.param("diffuse").filter(|r| r.len() == 3).ok_or_else(|| Error::invalid("transfer needs a 3-channel Diffuse parameter"))?;
     if target.channels() < 3 {
@@ -282,7 +317,8 @@ pub fn transfer(
             // The choice and the timing lean to the object's bottom only:
             // with its rims as well, the rust outlined the object (review).
             let low = mask.map(|m| wetness(m, 0.0));
-            grow(&synthesized, target, kd, t0, &Place { mask, wet: low.as_ref(), pace: &pace, glaze: &glaze }, seed)?
+            let place = Place { mask, wet: low.as_ref(), pace: &pace, glaze: &glaze, clustering: params.clustering };
+            grow(&synthesized, target, kd, t0, &place, seed)?
         }
         _ => (material.degree, scaled(&synthesized, target, kd, t0, mode)),
     };
@@ -489,6 +525,8 @@ struct Pace {
     colour: [f32; 3],
     /// The median strength (|D| / top) of the texels that take the change on.
     strength: f32,
+    /// Their mean opacity over a target ([`end_state`] without exposure).
+    opacity: f32,
     top: f32,
 }
 
@@ -505,7 +543,8 @@ impl Pace {
         let total = timing.size.len();
         let strengths: Vec<f32> = arriving.iter().map(|&i| timing.size[i] / top).collect();
         let strength = if strengths.is_empty() { 1.0 } else { quantile(&strengths, 0.5) };
-        Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, strength, top }
+        let opacity = strengths.iter().map(|s| (s / strength).min(1.0)).sum::<f32>() / n;
+        Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, strength, opacity, top }
     }
 }
 
@@ -514,26 +553,28 @@ impl Pace {
 const EXPOSURE_LEAD: f32 = 1.0;
 
 /// Each texel's arrival time on the target, from the source's pace:
-/// - which texels take on the material: the source's share of them (over
-///   the object, and separately off it), those of the highest strength
+/// - which texels take on the material: as many as hold the source's
+///   share of visible material (over the object, and separately off it;
+///   each counts its opacity, [`end_state`]), those of the highest strength
 ///   (own |D| / top, at most 1) plus [`EXPOSURE_LEAD`] times their
 ///   exposure, plus (with a mask) [`WET_CHOICE`] times their wetness over
-///   0.5. Guided synthesis under-copies rare spots (on the rusting
+///   0.5, plus the patches' field ([`clusters`]). Guided synthesis under-copies rare spots (on the rusting
 ///   steel capture onto a painted test texture, 8% of the result against
 ///   28% of the source had rusted at t = 1), so the result's own strongest
 ///   changes are completed to the source's share, crevices first;
 /// - when: the chosen texels are ordered by their own arrival (strength
 ///   floored at [`GROW_CUT`]) as a rank r in [0, 1], half of it by their
 ///   depth in the chosen region, brought forward by [`NEAR_LEAD`] times
-///   their nearness to exposed places, and given the source's arrival
-///   at that rank, and with a mask by [`WET_LEAD`] times how wet it
-///   is ([`wetness`]). So the covered share grows at the source's pace (0.1%
+///   their nearness to exposed places, by [`CLUSTER_LEAD`] times the
+///   patches' field, and with a mask by [`WET_LEAD`] times how wet it
+///   is ([`wetness`]), and given the source's arrival at the share of
+///   the visible material ranked before it. So the covered share grows at the source's pace (0.1%
 ///   of the result's texels had changed before t = 0.5 against 5.6% of
 ///   the source's, on the capture onto a photo), and within it the
 ///   result's own spots lead, cores before rims, crevices before open paint.
 ///
 /// Texels that never take it on get an arrival past 1 (no cover).
-fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, wet: Option<&Image>, pace: &Pace) -> Vec<f32> {
+fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, wet: Option<&Image>, pace: &Pace, patches: &[f32]) -> Vec<f32> {
     let n = timing.size.len();
     let mut out = vec![1.0 + 2.0 * GROW_FRONT; n];
     if pace.arrivals.is_empty() {
@@ -549,15 +590,30 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, wet: Option<&I
     let peak = quantile(&on_object(spread.data(), mask), 0.99).max(1e-3);
     let near: Vec<f32> = spread.data().iter().zip(e).map(|(v, e)| (v / peak).min(1.0).max(*e)).collect();
     let strength = |i: usize| (timing.size[i] / pace.top).min(1.0);
+    // A texel's opacity over the target ([`end_state`]).
+    let opacity = |i: usize| (strength(i) / pace.strength).min(1.0).max(e[i].min(1.0));
     let last = (pace.arrivals.len() - 1) as f32;
     let by = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
     for on in [true, false] {
         let group: Vec<usize> = (0..n).filter(|&i| mask.is_none_or(|m| (m.data()[i] > 0.5) == on)).collect();
         let wet_at = |i: usize| wet.map_or(0.0, |m| WET_CHOICE * (m.data()[i] - 0.5));
         let mut chosen: Vec<(f32, usize)> =
-            group.iter().map(|&i| (-(strength(i) + EXPOSURE_LEAD * e[i] + NEAR_CHOICE * near[i] + wet_at(i)), i)).collect();
+            group.iter().map(|&i| (-(strength(i) + EXPOSURE_LEAD * e[i] + NEAR_CHOICE * near[i] + wet_at(i) + patches[i]), i)).collect();
         chosen.sort_by(by);
-        chosen.truncate((pace.share * group.len() as f32).round() as usize);
+        // As many as hold the source's share of visible material (the sum
+        // of the opacities [`end_state`] gives them): with patches, the
+        // weak texels a patch takes in show little, and a count of texels
+        // left the result with two thirds of the source's rust.
+        let budget = pace.share * pace.opacity * group.len() as f32;
+        let mut held = 0.0;
+        let take = chosen
+            .iter()
+            .position(|&(_, i)| {
+                held += opacity(i);
+                held > budget
+            })
+            .unwrap_or(chosen.len());
+        chosen.truncate(take);
         let mut own: Vec<(f32, usize)> =
             chosen.iter().map(|&(_, i)| (own_arrival(strength(i).max(GROW_CUT), timing.onset[i]), i)).collect();
         own.sort_by(by);
@@ -573,12 +629,25 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, wet: Option<&I
             .map(|(r, &(_, i))| {
                 let shallow = 1.0 - (depth[i] / GROW_DEPTH).min(1.0);
                 let wet = wet.map_or(0.0, |m| m.data()[i]);
-                ((1.0 - GROW_FROM_MIDDLE) * r as f32 / span + GROW_FROM_MIDDLE * shallow - NEAR_LEAD * near[i] - WET_LEAD * wet, i)
+                (
+                    (1.0 - GROW_FROM_MIDDLE) * r as f32 / span + GROW_FROM_MIDDLE * shallow
+                        - NEAR_LEAD * near[i]
+                        - WET_LEAD * wet
+                        - CLUSTER_LEAD * patches[i],
+                    i,
+                )
             })
             .collect();
         keyed.sort_by(by);
-        for (r, &(_, i)) in keyed.iter().enumerate() {
-            out[i] = pace.arrivals[((r as f32 / span) * last).round() as usize];
+        // Timed by the share of the visible material arrived before them
+        // (their opacities summed in order), so the visible cover follows
+        // the pace even where a patch took in weak texels.
+        let total: f32 = keyed.iter().map(|&(_, i)| opacity(i)).sum::<f32>().max(1e-6);
+        let mut before = 0.0;
+        for &(_, i) in &keyed {
+            let o = opacity(i);
+            out[i] = pace.arrivals[(((before + 0.5 * o) / total).min(1.0) * last).round() as usize];
+            before += o;
         }
     }
     out
@@ -604,6 +673,39 @@ const WET_LEAD: f32 = 1.0;
 /// 0.17 / 0.42 / 0.84 (0.6 gave 0.22 / 0.45 / 0.80); the share is the
 /// source's either way.
 const WET_CHOICE: f32 = 1.2;
+
+/// Wavelength of [`clusters`]' largest octave, as a share of the side of
+/// a square of the object's area (the target's without a mask).
+const CLUSTER_SCALE: f32 = 0.3;
+/// How far ahead of its rank in time (a share of the chosen texels) a
+/// texel one unit of [`clusters`] into a patch arrives, relative to its
+/// weight in the choice: patches take hold first and spread.
+const CLUSTER_LEAD: f32 = 0.3;
+
+/// Where the material gathers in patches, per texel: a domain-warped fBm
+/// field (3 octaves from [`CLUSTER_SCALE`] of the object's side down,
+/// warped by half that) standardised over the target to mean 0 and std
+/// `weight`, added to the choice of texels that take the material on (in
+/// units of a texel's own strength, 0 to 1) and, times [`CLUSTER_LEAD`],
+/// to their head start in time. Corrosion is not even over an object: it
+/// takes whole areas where the coat failed first and leaves others nearly
+/// clean. Without it, the material's spots, copied at the capture's
+/// density over the whole object, read as camouflage (review: "even,
+/// blocky blobs"). A stand-in for the coat's unknown local failure, as
+/// decay's degree maps are (Hao et al. 2023); all zeros at weight 0.
+fn clusters((w, h): (usize, usize), mask: Option<&Image>, weight: f32, seed: u64) -> Vec<f32> {
+    if weight <= 0.0 {
+        return vec![0.0; w * h];
+    }
+    let area = mask.map_or((w * h) as f32, |m| m.data().iter().map(|v| v.clamp(0.0, 1.0)).sum::<f32>()).max(1.0);
+    let scale = CLUSTER_SCALE * area.sqrt();
+    let layer = crate::image::noise::Layer::new(seed, 0xc105);
+    let field: Vec<f32> = (0..w * h).into_par_iter().map(|i| layer.warped((i % w) as f32, (i / w) as f32, scale, 3, 0.5 * scale)).collect();
+    let n = field.len() as f64;
+    let mean = field.iter().map(|&v| v as f64).sum::<f64>() / n;
+    let std = (field.iter().map(|&v| (v as f64 - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-9);
+    field.iter().map(|&v| ((v as f64 - mean) / std) as f32 * weight).collect()
+}
 
 /// How much nearness to exposed places (chips, seams) weighs in the
 /// choice, against a texel's own strength: the rust grows out of the
@@ -702,6 +804,8 @@ struct Place<'a> {
     pace: &'a Pace,
     /// The glaze around what has arrived.
     glaze: &'a Transition,
+    /// [`TransferParams::clustering`].
+    clustering: f32,
 }
 
 /// [`Mode::Grow`] (module docs): per texel, the cover c(t) from its arrival
@@ -710,7 +814,7 @@ struct Place<'a> {
 /// other parameter from its t0 value towards its value then by c, refitted
 /// pinned at t0.
 fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32, place: &Place, seed: u64) -> Result<(usize, Image)> {
-    let Place { mask, wet, pace, glaze } = *place;
+    let Place { mask, wet, pace, glaze, clustering } = *place;
     let m = material.degree + 1;
     let out_degree = material.degree.max(GROW_DEGREE);
     let samples = 4 * (out_degree + 1);
@@ -721,7 +825,8 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
     let timing = Timing::of(material, kd.clone(), t0);
     let end_at = timing.end_at;
     let exposed = exposure(target, mask);
-    let mut arrivals = paced(&timing, &exposed, mask, wet, pace);
+    let patches = clusters(target.size(), mask, clustering, seed);
+    let mut arrivals = paced(&timing, &exposed, mask, wet, pace, &patches);
     dither(&mut arrivals, target.width(), seed);
     let coefficients = &material.coefficients;
     let n = coefficients.channels();
@@ -1072,7 +1177,7 @@ mod tests {
     #[test]
     fn the_arriving_rust_is_never_black_and_its_rims_are_not_grey() {
         let timing = Timing { size: vec![1.0, 0.4, 1.0], onset: vec![0.5; 3], end_at: 1.0 };
-        let pace = Pace { arrivals: vec![0.5], share: 0.5, colour: [0.3, 0.16, 0.07], strength: 1.0, top: 1.0 };
+        let pace = Pace { arrivals: vec![0.5], share: 0.5, colour: [0.3, 0.16, 0.07], strength: 1.0, opacity: 1.0, top: 1.0 };
         let light = |v: [f32; 3]| pixel_luminance(&v);
         let (black, opacity) = end_state(&timing, &pace, 0, [0.01, 0.01, 0.02], 0.0);
         assert_eq!(opacity, 1.0);
@@ -1099,7 +1204,7 @@ mod tests {
         let inside = |x: usize, y: usize| (8..16).contains(&x) && (8..16).contains(&y);
         let mut arrivals: Vec<f32> = (0..w * h).map(|i| if inside(i % w, i / w) { 0.5 } else { 2.0 }).collect();
         let mut ends = vec![([0.5, 0.4, 0.3], 1.0); w * h];
-        let pace = Pace { arrivals: vec![0.5], share: 0.1, colour: [0.3, 0.16, 0.07], strength: 1.0, top: 1.0 };
+        let pace = Pace { arrivals: vec![0.5], share: 0.1, colour: [0.3, 0.16, 0.07], strength: 1.0, opacity: 1.0, top: 1.0 };
         antialias((w, h), &mut arrivals, &mut ends, &pace);
         let at = |x: usize, y: usize| y * w + x;
         for (x, y) in [(7, 12), (16, 12), (12, 7), (12, 16)] {
