@@ -178,6 +178,11 @@ pub struct TransferArgs {
     /// water stands and the target's chips.
     #[arg(long, default_value_t = transfer::CLUSTERING, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub clustering: f32,
+    /// grow: the share of the source material's final visible cover the target takes on, in (0, 1]. Below 1 the
+    /// spots the target favours least (its dry, sheltered, patch-free parts) stay clean [default: 0.6 with --mask, a
+    /// coated object rusting where its coat fails; 1 without].
+    #[arg(long, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1.0))]
+    pub coverage: Option<f32>,
     /// The material's size on the target: 0.5 draws its features (spots, grain) at half the size they have in the
     /// material, 2 at twice (its coefficients resampled, exact at every time).
     #[arg(long, default_value_t = 1.0, value_parser = |s: &str| crate::flags::number(s, 0.05, 8.0))]
@@ -475,6 +480,7 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
             TempoArg::Even => transfer::Tempo::Even,
         },
         clustering: args.clustering,
+        coverage: args.coverage,
         scale: args.scale,
         ..Default::default()
     };

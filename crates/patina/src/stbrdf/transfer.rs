@@ -52,8 +52,10 @@
 //!     of the material ([`WET_CHOICE`]) and are reached first
 //!     ([`WET_LEAD`]), so the rust climbs the object and gathers low.
 //!   - The material gathers in patches ([`clusters`]: a noise field, as
-//!     decay's degree maps are), which take it first and most, so it does
-//!     not lie at the capture's density over the whole object.
+//!     decay's degree maps are), which take it first and most, and with a
+//!     mask covers only part of the source's share
+//!     ([`TransferParams::coverage`]), so it does not lie at the capture's
+//!     density over the whole object.
 //!   - [`TransferParams::scale`] draws the material's features larger or
 //!     smaller on the target ([`Material::scaled`]).
 //!   - What has arrived glazes the target around it and runs down below
@@ -155,6 +157,10 @@ pub struct TransferParams {
     /// The material's size on the target: 0.5 draws its features at half
     /// their captured size ([`Material::scaled`]).
     pub scale: f32,
+    /// [`Mode::Grow`]: the share of the source's final visible material
+    /// the target takes on, in (0, 1]; `None`: [`MASKED_COVERAGE`] with a
+    /// mask, 1 without.
+    pub coverage: Option<f32>,
     pub optimize: OptimizeParams,
 }
 
@@ -186,6 +192,13 @@ pub const HALO: f32 = 3.0;
 pub const RUNOFF: f32 = 40.0;
 /// The smallest side of a material drawn at [`TransferParams::scale`].
 const MIN_SCALED_SIDE: usize = 16;
+/// [`TransferParams::coverage`]'s default with a mask. A capture of bare
+/// metal rusts over half of it; a coated object rusts where its coat
+/// fails, and the choice then decides where that is (its bottom, chips,
+/// patches) instead of every spot of the material showing. At 1 the
+/// hydrant's lower body was an even camouflage print with 97% of it
+/// changed (review); 0.6 leaves its dry and sheltered parts clean.
+pub const MASKED_COVERAGE: f32 = 0.6;
 /// [`TransferParams::clustering`]'s default.
 pub const CLUSTERING: f32 = 1.0;
 
@@ -214,6 +227,7 @@ impl Default for TransferParams {
             tempo: Tempo::default(),
             clustering: CLUSTERING,
             scale: 1.0,
+            coverage: None,
             optimize: OptimizeParams::default(),
         }
     }
@@ -245,6 +259,10 @@ pub fn transfer(
     }
     if !(params.clustering.is_finite() && params.clustering >= 0.0) {
         return Err(Error::invalid(format!("the clustering must be a number >= 0, got {}", params.clustering)));
+    }
+    let coverage = params.coverage.unwrap_or(if mask.is_some() { MASKED_COVERAGE } else { 1.0 });
+    if !(coverage.is_finite() && coverage > 0.0 && coverage <= 1.0) {
+        return Err(Error::invalid(format!("the coverage must be in (0, 1], got {coverage}")));
     }
     let resized;
     let material = if params.scale == 1.0 {
@@ -317,7 +335,7 @@ pub fn transfer(
             // The choice and the timing lean to the object's bottom only:
             // with its rims as well, the rust outlined the object (review).
             let low = mask.map(|m| wetness(m, 0.0));
-            let place = Place { mask, wet: low.as_ref(), pace: &pace, glaze: &glaze, clustering: params.clustering };
+            let place = Place { mask, wet: low.as_ref(), pace: &pace, glaze: &glaze, clustering: params.clustering, coverage };
             grow(&synthesized, target, kd, t0, &place, seed)?
         }
         _ => (material.degree, scaled(&synthesized, target, kd, t0, mode)),
@@ -553,12 +571,14 @@ impl Pace {
 const EXPOSURE_LEAD: f32 = 1.0;
 
 /// Each texel's arrival time on the target, from the source's pace:
-/// - which texels take on the material: as many as hold the source's
-///   share of visible material (over the object, and separately off it;
-///   each counts its opacity, [`end_state`]), those of the highest strength
+/// - which texels take on the material: as many as hold `coverage`
+///   ([`TransferParams::coverage`]) times the source's share of visible
+///   material (over the object, and separately off it; each counts its
+///   opacity, [`end_state`]), those of the highest strength
 ///   (own |D| / top, at most 1) plus [`EXPOSURE_LEAD`] times their
 ///   exposure, plus (with a mask) [`WET_CHOICE`] times their wetness over
-///   0.5, plus the patches' field ([`clusters`]). Guided synthesis under-copies rare spots (on the rusting
+///   0.5, plus, for texels that hold a spot (strength at least
+///   [`GROW_CUT`]), the patches' field ([`clusters`]). Guided synthesis under-copies rare spots (on the rusting
 ///   steel capture onto a painted test texture, 8% of the result against
 ///   28% of the source had rusted at t = 1), so the result's own strongest
 ///   changes are completed to the source's share, crevices first;
@@ -574,7 +594,15 @@ const EXPOSURE_LEAD: f32 = 1.0;
 ///   result's own spots lead, cores before rims, crevices before open paint.
 ///
 /// Texels that never take it on get an arrival past 1 (no cover).
-fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, wet: Option<&Image>, pace: &Pace, patches: &[f32]) -> Vec<f32> {
+fn paced(
+    timing: &Timing,
+    exposure: &Image,
+    mask: Option<&Image>,
+    wet: Option<&Image>,
+    pace: &Pace,
+    patches: &[f32],
+    coverage: f32,
+) -> Vec<f32> {
     let n = timing.size.len();
     let mut out = vec![1.0 + 2.0 * GROW_FRONT; n];
     if pace.arrivals.is_empty() {
@@ -592,19 +620,23 @@ fn paced(timing: &Timing, exposure: &Image, mask: Option<&Image>, wet: Option<&I
     let strength = |i: usize| (timing.size[i] / pace.top).min(1.0);
     // A texel's opacity over the target ([`end_state`]).
     let opacity = |i: usize| (strength(i) / pace.strength).min(1.0).max(e[i].min(1.0));
+    // Patches favour the texels that hold a spot: weak texels a patch took
+    // in showed as a flat, translucent wash with the patch's hard outline
+    // (review: "a flat mud-brown layer ... like dirt or a stencil").
+    let patch_at = |i: usize| if strength(i) >= GROW_CUT { patches[i] } else { 0.0 };
     let last = (pace.arrivals.len() - 1) as f32;
     let by = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
     for on in [true, false] {
         let group: Vec<usize> = (0..n).filter(|&i| mask.is_none_or(|m| (m.data()[i] > 0.5) == on)).collect();
         let wet_at = |i: usize| wet.map_or(0.0, |m| WET_CHOICE * (m.data()[i] - 0.5));
         let mut chosen: Vec<(f32, usize)> =
-            group.iter().map(|&i| (-(strength(i) + EXPOSURE_LEAD * e[i] + NEAR_CHOICE * near[i] + wet_at(i) + patches[i]), i)).collect();
+            group.iter().map(|&i| (-(strength(i) + EXPOSURE_LEAD * e[i] + NEAR_CHOICE * near[i] + wet_at(i) + patch_at(i)), i)).collect();
         chosen.sort_by(by);
         // As many as hold the source's share of visible material (the sum
         // of the opacities [`end_state`] gives them): with patches, the
         // weak texels a patch takes in show little, and a count of texels
         // left the result with two thirds of the source's rust.
-        let budget = pace.share * pace.opacity * group.len() as f32;
+        let budget = coverage * pace.share * pace.opacity * group.len() as f32;
         let mut held = 0.0;
         let take = chosen
             .iter()
@@ -685,8 +717,8 @@ const CLUSTER_LEAD: f32 = 0.3;
 /// Where the material gathers in patches, per texel: a domain-warped fBm
 /// field (3 octaves from [`CLUSTER_SCALE`] of the object's side down,
 /// warped by half that) standardised over the target to mean 0 and std
-/// `weight`, added to the choice of texels that take the material on (in
-/// units of a texel's own strength, 0 to 1) and, times [`CLUSTER_LEAD`],
+/// `weight`, added to the choice of the texels that hold a spot ([`paced`];
+/// in units of a texel's own strength, 0 to 1) and, times [`CLUSTER_LEAD`],
 /// to their head start in time. Corrosion is not even over an object: it
 /// takes whole areas where the coat failed first and leaves others nearly
 /// clean. Without it, the material's spots, copied at the capture's
@@ -806,6 +838,8 @@ struct Place<'a> {
     glaze: &'a Transition,
     /// [`TransferParams::clustering`].
     clustering: f32,
+    /// [`TransferParams::coverage`] resolved.
+    coverage: f32,
 }
 
 /// [`Mode::Grow`] (module docs): per texel, the cover c(t) from its arrival
@@ -814,7 +848,7 @@ struct Place<'a> {
 /// other parameter from its t0 value towards its value then by c, refitted
 /// pinned at t0.
 fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32, place: &Place, seed: u64) -> Result<(usize, Image)> {
-    let Place { mask, wet, pace, glaze, clustering } = *place;
+    let Place { mask, wet, pace, glaze, clustering, coverage } = *place;
     let m = material.degree + 1;
     let out_degree = material.degree.max(GROW_DEGREE);
     let samples = 4 * (out_degree + 1);
@@ -826,7 +860,7 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
     let end_at = timing.end_at;
     let exposed = exposure(target, mask);
     let patches = clusters(target.size(), mask, clustering, seed);
-    let mut arrivals = paced(&timing, &exposed, mask, wet, pace, &patches);
+    let mut arrivals = paced(&timing, &exposed, mask, wet, pace, &patches, coverage);
     dither(&mut arrivals, target.width(), seed);
     let coefficients = &material.coefficients;
     let n = coefficients.channels();
