@@ -199,8 +199,10 @@ const MIN_SCALED_SIDE: usize = 16;
 /// hydrant's lower body was an even camouflage print with 97% of it
 /// changed (review); 0.6 leaves its dry and sheltered parts clean.
 pub const MASKED_COVERAGE: f32 = 0.6;
-/// [`TransferParams::clustering`]'s default.
-pub const CLUSTERING: f32 = 1.0;
+/// [`TransferParams::clustering`]'s default. At 1 the patches' field
+/// outweighed the object's crevices and wet bottom, and reviewers saw
+/// "a diagonal band ... placement that follows a noise pattern".
+pub const CLUSTERING: f32 = 0.6;
 
 /// [`Mode::Grow`]'s default guide weight. Stronger guides copied fewer and
 /// fewer spots (at 0.5, a third fewer changed at t = 1 on the hydrant) and
@@ -1106,9 +1108,11 @@ fn keyed(values: &[f32], i: usize, tau: f32) -> f32 {
 /// Strength (an exponent) and limits of the target's fine relief over its
 /// shading that [`Mode::Grow`] keeps in the arriving material. At full
 /// strength it turned crevice rust near-black and showed the paint's gloss
-/// and grain through it (review).
-const RELIEF: f32 = 0.5;
-const RELIEF_RANGE: (f32, f32) = (0.75, 1.25);
+/// and grain through it (review); at 0.5 within (0.75, 1.25) the rust
+/// smothered the hydrant's bolts and flange steps (reviews: "bolt heads
+/// disappear under flat blotches").
+const RELIEF: f32 = 0.8;
+const RELIEF_RANGE: (f32, f32) = (0.55, 1.6);
 /// Scale (sigma, px) of the target's shading that lights the material.
 const SHADING_SIGMA: f32 = 2.0;
 /// Cavity contrast that counts as fully exposed: a texel this much darker
