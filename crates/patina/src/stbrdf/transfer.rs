@@ -459,6 +459,8 @@ struct Timing {
     onset: Vec<f32>,
     /// t_D: 1, or 0 when t0 is past the middle.
     end_at: f32,
+    /// t0.
+    start_at: f32,
 }
 
 impl Timing {
@@ -501,7 +503,7 @@ impl Timing {
                 (whole.sqrt(), 1.0)
             })
             .unzip();
-        Timing { size, onset, end_at }
+        Timing { size, onset, end_at, start_at: t0 }
     }
 
     /// The largest change that counts as the material's full change: the
@@ -547,6 +549,8 @@ struct Pace {
     strength: f32,
     /// Their mean opacity over a target ([`end_state`] without exposure).
     opacity: f32,
+    /// Their mean Diffuse at t0.
+    bare: [f32; 3],
     top: f32,
 }
 
@@ -557,14 +561,16 @@ impl Pace {
         let (arriving, mut arrivals): (Vec<usize>, Vec<f32>) =
             (0..timing.size.len()).map(|i| (i, timing.arrival(i, top))).filter(|&(_, a)| a <= 1.0).unzip();
         arrivals.sort_by(f32::total_cmp);
-        let end = material.evaluate(timing.end_at).select_channels(kd);
+        let end = material.evaluate(timing.end_at).select_channels(kd.clone());
         let n = arriving.len().max(1) as f32;
         let colour = std::array::from_fn(|c| arriving.iter().map(|&i| end.data()[3 * i + c]).sum::<f32>() / n);
         let total = timing.size.len();
         let strengths: Vec<f32> = arriving.iter().map(|&i| timing.size[i] / top).collect();
         let strength = if strengths.is_empty() { 1.0 } else { quantile(&strengths, 0.5) };
         let opacity = strengths.iter().map(|s| (s / strength).min(1.0)).sum::<f32>() / n;
-        Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, strength, opacity, top }
+        let start = material.evaluate(timing.start_at).select_channels(kd.clone());
+        let bare = std::array::from_fn(|c| arriving.iter().map(|&i| start.data()[3 * i + c]).sum::<f32>() / n);
+        Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, strength, opacity, bare, top }
     }
 }
 
@@ -920,7 +926,11 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
                     let poly = &a[c * m..(c + 1) * m];
                     let diffuse = kd.contains(&c);
                     let base = if diffuse { want[c - kd.start] } else { evaluate(poly, t0) };
-                    let arrived = if diffuse { base + opacity * (shading * colour[c - kd.start] - base) } else { evaluate(poly, end_at) };
+                    let arrived = if diffuse {
+                        arrived_colour(base, shading * colour[c - kd.start], pace.bare[c - kd.start], opacity)
+                    } else {
+                        evaluate(poly, end_at)
+                    };
                     // The glaze multiplies the target (in linear light) where
                     // the material has not arrived itself.
                     let glazed = if diffuse && !glazes.is_empty() {
@@ -946,6 +956,26 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
         );
     Ok((out_degree, out))
 }
+
+/// One Diffuse channel of what texel of the target `base` becomes where
+/// the material's end state `end` (lit) arrives with `opacity`, the
+/// material having been `bare` there before (its mean at t0): over the
+/// target (base + o (end - base)) where it is opaque, and as a stain of
+/// the target (base (end / bare)^o, the material's change as a ratio, as
+/// eq. 16 carries it) where it is partial, weighed by o^2. Laid over the
+/// paint, a spot's partial rim is a mix of the paint with the capture's
+/// yellow-brown fringe, which beside orange paint read as a khaki or
+/// olive ring round every spot (three reviews); as a stain it darkens and
+/// browns the paint in its own hue.
+fn arrived_colour(base: f32, end: f32, bare: f32, opacity: f32) -> f32 {
+    let over = base + opacity * (end - base);
+    let ratio = (end / bare.max(1e-3)).clamp(STAIN_RATIO.0, STAIN_RATIO.1);
+    let w = opacity * opacity;
+    w * over + (1.0 - w) * base * ratio.powf(opacity)
+}
+
+/// Limits of [`arrived_colour`]'s ratio.
+const STAIN_RATIO: (f32, f32) = (0.05, 1.5);
 
 /// Width (sigma, px) of the fringe [`antialias`] gives what arrives.
 const FRINGE_SIGMA: f32 = 0.6;
@@ -1214,8 +1244,9 @@ mod tests {
     /// brightness keeps its own colour.
     #[test]
     fn the_arriving_rust_is_never_black_and_its_rims_are_not_grey() {
-        let timing = Timing { size: vec![1.0, 0.4, 1.0], onset: vec![0.5; 3], end_at: 1.0 };
-        let pace = Pace { arrivals: vec![0.5], share: 0.5, colour: [0.3, 0.16, 0.07], strength: 1.0, opacity: 1.0, top: 1.0 };
+        let timing = Timing { size: vec![1.0, 0.4, 1.0], onset: vec![0.5; 3], end_at: 1.0, start_at: 0.0 };
+        let pace =
+            Pace { arrivals: vec![0.5], share: 0.5, colour: [0.3, 0.16, 0.07], strength: 1.0, opacity: 1.0, bare: [0.6; 3], top: 1.0 };
         let light = |v: [f32; 3]| pixel_luminance(&v);
         let (black, opacity) = end_state(&timing, &pace, 0, [0.01, 0.01, 0.02], 0.0);
         assert_eq!(opacity, 1.0);
@@ -1233,6 +1264,24 @@ mod tests {
         assert_eq!(end_state(&timing, &pace, 2, brown, 0.0), (brown, 1.0));
     }
 
+    /// Where the material arrives opaque it is its own colour; where it is
+    /// partial it stains the target in the target's hue instead of mixing
+    /// its yellow-brown fringe into orange paint (a khaki ring, reviews):
+    /// at half opacity the result's green over red is 0.44, under the
+    /// paint's 0.51, where a plain mix raises it to 0.56.
+    #[test]
+    fn partial_rust_stains_the_paint_in_its_hue() {
+        let (paint, rust, steel) = ([0.84, 0.43, 0.24], [0.42, 0.27, 0.13], [0.6, 0.6, 0.6]);
+        let at = |o: f32| -> [f32; 3] { std::array::from_fn(|c| arrived_colour(paint[c], rust[c], steel[c], o)) };
+        let mix = |o: f32| -> [f32; 3] { std::array::from_fn(|c| paint[c] + o * (rust[c] - paint[c])) };
+        assert!(at(1.0).iter().zip(rust).all(|(a, b)| (a - b).abs() < 1e-6), "opaque: {:?}", at(1.0));
+        assert!(at(0.0).iter().zip(paint).all(|(a, b)| (a - b).abs() < 1e-6));
+        let (stained, mixed) = (at(0.5), mix(0.5));
+        let hue = |v: [f32; 3]| v[1] / v[0];
+        assert!(hue(stained) <= hue(paint) + 0.01 && hue(mixed) > hue(paint) + 0.04, "{stained:?} against {mixed:?}");
+        assert!(pixel_luminance(&stained) < 0.9 * pixel_luminance(&paint), "and it darkens: {stained:?}");
+    }
+
     /// A square that arrives gets a one-texel fringe that arrives with it,
     /// part opaque, in the material's mean end state; texels further out
     /// stay bare.
@@ -1242,7 +1291,8 @@ mod tests {
         let inside = |x: usize, y: usize| (8..16).contains(&x) && (8..16).contains(&y);
         let mut arrivals: Vec<f32> = (0..w * h).map(|i| if inside(i % w, i / w) { 0.5 } else { 2.0 }).collect();
         let mut ends = vec![([0.5, 0.4, 0.3], 1.0); w * h];
-        let pace = Pace { arrivals: vec![0.5], share: 0.1, colour: [0.3, 0.16, 0.07], strength: 1.0, opacity: 1.0, top: 1.0 };
+        let pace =
+            Pace { arrivals: vec![0.5], share: 0.1, colour: [0.3, 0.16, 0.07], strength: 1.0, opacity: 1.0, bare: [0.6; 3], top: 1.0 };
         antialias((w, h), &mut arrivals, &mut ends, &pace);
         let at = |x: usize, y: usize| y * w + x;
         for (x, y) in [(7, 12), (16, 12), (12, 7), (12, 16)] {
