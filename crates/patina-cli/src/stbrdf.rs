@@ -148,7 +148,7 @@ pub struct TransferArgs {
     #[arg(long, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0e6))]
     pub guide_weight: Option<f32>,
     /// How the material's change lands on the target. grow: the material covers the target texel by texel in its own
-    /// spatial pattern, up to the source's share (see --tempo), spots growing from their
+    /// spatial pattern, up to --coverage of the source's share (see --tempo), spots growing from their
     /// middle out and starting in the target's crevices and chips. ratio: the change scaled by target / material
     /// at t0 (eq. 16; wetting, dulling). offset: the change added unscaled. auto: ratio for changes small against the
     /// material at t0, offset for large ones.
