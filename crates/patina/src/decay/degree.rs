@@ -55,24 +55,15 @@ pub fn affinity(class: DecayClass, form: &Image, relief: &Image, mask: &Mask) ->
     if class == DecayClass::Rust {
         // Water stands and runs where rust starts: at the object's rims and
         // low down, as much as in its crevices.
-        let crevice = standardised(&values, mask);
+        let crevice = mask.standardise(&values);
         let wet = mask.wet_places();
         values.iter_mut().zip(crevice).zip(wet).for_each(|((v, c), w)| *v = 0.5 * c + w);
     }
     // Rust's places are the stronger pull: its z-score is not halved.
     let gain = if class == DecayClass::Rust { 1.0 } else { 0.5 };
     let data =
-        standardised(&values, mask).into_iter().zip(mask.bits()).map(|(z, &m)| if m { (gain * z).clamp(-1.0, 1.0) } else { 0.0 }).collect();
+        mask.standardise(&values).into_iter().zip(mask.bits()).map(|(z, &m)| if m { (gain * z).clamp(-1.0, 1.0) } else { 0.0 }).collect();
     Some(Image::from_data(mask.width(), mask.height(), 1, data).expect("one value per pixel"))
-}
-
-/// `values` as z-scores over the mask (mean 0, standard deviation 1 inside it).
-fn standardised(values: &[f32], mask: &Mask) -> Vec<f32> {
-    let inside: Vec<f64> = values.iter().zip(mask.bits()).filter(|(_, &m)| m).map(|(&v, _)| v as f64).collect();
-    let n = inside.len().max(1) as f64;
-    let mean = inside.iter().sum::<f64>() / n;
-    let std = (inside.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-6);
-    values.iter().map(|&v| ((v as f64 - mean) / std) as f32).collect()
 }
 
 /// Algorithm 1: the initial degree map of a `mask`.

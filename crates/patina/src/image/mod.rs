@@ -266,6 +266,17 @@ impl Mask {
     pub fn count(&self) -> usize {
         self.bits.iter().filter(|&&b| b).count()
     }
+
+    /// `values` (one per pixel) as z-scores over the set pixels: mean 0 and
+    /// standard deviation 1 there (floored at 1e-6), every pixel shifted
+    /// and scaled alike.
+    pub fn standardise(&self, values: &[f32]) -> Vec<f32> {
+        let inside: Vec<f64> = values.iter().zip(self.bits()).filter(|(_, &m)| m).map(|(&v, _)| v as f64).collect();
+        let n = inside.len().max(1) as f64;
+        let mean = inside.iter().sum::<f64>() / n;
+        let std = (inside.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-6);
+        values.iter().map(|&v| ((v as f64 - mean) / std) as f32).collect()
+    }
     /// Where water stands on an object, in [0, 1.6]: up to 1 near its
     /// outline (within about a twentieth of its size; the mask blurred at
     /// that width is a half at the outline and 1 deep inside) plus up to 0.6

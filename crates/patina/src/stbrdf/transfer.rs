@@ -567,10 +567,18 @@ impl Pace {
         let total = timing.size.len();
         let strengths: Vec<f32> = arriving.iter().map(|&i| timing.size[i] / top).collect();
         let strength = if strengths.is_empty() { 1.0 } else { quantile(&strengths, 0.5) };
-        let opacity = strengths.iter().map(|s| (s / strength).min(1.0)).sum::<f32>() / n;
         let start = material.evaluate(timing.start_at).select_channels(kd.clone());
         let bare = std::array::from_fn(|c| arriving.iter().map(|&i| start.data()[3 * i + c]).sum::<f32>() / n);
-        Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, strength, opacity, bare, top }
+        let mut pace = Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, strength, opacity: 0.0, bare, top };
+        pace.opacity = arriving.iter().map(|&i| pace.own(timing.size[i])).sum::<f32>() / n;
+        pace
+    }
+
+    /// The share of a spot a texel of whole change `size` holds: its
+    /// strength (size / top) over the median arriving strength, at most 1
+    /// ([`end_state`]'s opacity before exposure).
+    fn own(&self, size: f32) -> f32 {
+        (size / self.top / self.strength).min(1.0)
     }
 }
 
@@ -586,20 +594,22 @@ const EXPOSURE_LEAD: f32 = 1.0;
 ///   (own |D| / top, at most 1) plus [`EXPOSURE_LEAD`] times their
 ///   exposure, plus (with a mask) [`WET_CHOICE`] times their wetness over
 ///   0.5, plus, for texels that hold a spot (strength at least
-///   [`GROW_CUT`]), the patches' field ([`clusters`]). Guided synthesis under-copies rare spots (on the rusting
-///   steel capture onto a painted test texture, 8% of the result against
-///   28% of the source had rusted at t = 1), so the result's own strongest
-///   changes are completed to the source's share, crevices first;
+///   [`GROW_CUT`]), the patches' field ([`clusters`]). Guided synthesis
+///   under-copies rare spots (on the rusting steel capture onto a painted
+///   test texture, 8% of the result against 28% of the source had rusted
+///   at t = 1), so the result's own strongest changes are completed to
+///   the source's share, crevices first;
 /// - when: the chosen texels are ordered by their own arrival (strength
 ///   floored at [`GROW_CUT`]) as a rank r in [0, 1], half of it by their
 ///   depth in the chosen region, brought forward by [`NEAR_LEAD`] times
 ///   their nearness to exposed places, by [`CLUSTER_LEAD`] times the
 ///   patches' field, and with a mask by [`WET_LEAD`] times how wet it
 ///   is ([`wetness`]), and given the source's arrival at the share of
-///   the visible material ranked before it. So the covered share grows at the source's pace (0.1%
-///   of the result's texels had changed before t = 0.5 against 5.6% of
-///   the source's, on the capture onto a photo), and within it the
-///   result's own spots lead, cores before rims, crevices before open paint.
+///   the visible material ranked before it. So the covered share grows
+///   at the source's pace (0.1% of the result's texels had changed before
+///   t = 0.5 against 5.6% of the source's, on the capture onto a photo),
+///   and within it the result's own spots lead, cores before rims,
+///   crevices before open paint.
 ///
 /// Texels that never take it on get an arrival past 1 (no cover).
 fn paced(
@@ -627,7 +637,7 @@ fn paced(
     let near: Vec<f32> = spread.data().iter().zip(e).map(|(v, e)| (v / peak).min(1.0).max(*e)).collect();
     let strength = |i: usize| (timing.size[i] / pace.top).min(1.0);
     // A texel's opacity over the target ([`end_state`]).
-    let opacity = |i: usize| (strength(i) / pace.strength).min(1.0).max(e[i].min(1.0));
+    let opacity = |i: usize| pace.own(timing.size[i]).max(e[i].min(1.0));
     // Patches favour the texels that hold a spot: weak texels a patch took
     // in showed as a flat, translucent wash with the patch's hard outline
     // (review: "a flat mud-brown layer ... like dirt or a stencil").
@@ -741,10 +751,7 @@ fn clusters((w, h): (usize, usize), mask: Option<&Image>, weight: f32, seed: u64
     let scale = CLUSTER_SCALE * area.sqrt();
     let layer = crate::image::noise::Layer::new(seed, 0xc105);
     let field: Vec<f32> = (0..w * h).into_par_iter().map(|i| layer.warped((i % w) as f32, (i / w) as f32, scale, 3, 0.5 * scale)).collect();
-    let n = field.len() as f64;
-    let mean = field.iter().map(|&v| v as f64).sum::<f64>() / n;
-    let std = (field.iter().map(|&v| (v as f64 - mean).powi(2)).sum::<f64>() / n).sqrt().max(1e-9);
-    field.iter().map(|&v| ((v as f64 - mean) / std) as f32 * weight).collect()
+    Mask::filled(w, h, true).standardise(&field).into_iter().map(|z| z * weight).collect()
 }
 
 /// How much nearness to exposed places (chips, seams) weighs in the
@@ -791,7 +798,7 @@ const GROW_DEPTH: f32 = 6.0;
 /// colour darker than [`DARKEST`] of the mean end state's luminance is
 /// lifted to it by adding the mean end state's own hue.
 fn end_state(timing: &Timing, pace: &Pace, i: usize, end: [f32; 3], e: f32) -> ([f32; 3], f32) {
-    let own = (timing.size[i] / pace.top / pace.strength).min(1.0);
+    let own = pace.own(timing.size[i]);
     let opacity = own.max(e.min(1.0));
     if opacity <= 0.0 {
         return (end, 0.0);
