@@ -204,6 +204,10 @@ pub fn age_map(img: &Image, params: &AgeParams) -> Result<AgeMap> {
             let regular = regularity(&features, v, params.detail_patch);
             detail.data_mut().iter_mut().zip(regular.data()).for_each(|(d, r)| *d *= 1.0 - r);
         }
+        if params.regular {
+            let regular = local_regularity(&features, &tiles::local_periods(&features.appearance), params.detail_patch);
+            detail.data_mut().iter_mut().zip(regular.data()).for_each(|(d, r)| *d *= 1.0 - r);
+        }
         for (a, d) in map.data_mut().iter_mut().zip(detail.data()) {
             *a = a.max(params.detail * d);
         }
@@ -461,6 +465,106 @@ fn regularity(f: &Features, v: [f32; 2], patch: usize) -> Image {
     let (q1, q2) = if sorted.is_empty() { (0.0, 0.0) } else { (sorted[sorted.len() / 4], sorted[sorted.len() / 2]) };
     let regular = dist.iter().map(|&d| if q2 > q1 { ((q2 - d) / (q2 - q1)).clamp(0.0, 1.0) } else { 0.0 }).collect();
     Image::from_data(w, h, 1, regular).expect("sizes match")
+}
+
+/// Weight of a colour difference (Lab a and b, over 100) against a
+/// gradient-direction difference in [`local_regularity`]: lichen or rust
+/// on a repeated tile lip breaks the repeat, a lip that is only lighter
+/// or darker than the next does not.
+const RECUR_CHROMA: f32 = 4.0;
+/// The ratio of a patch's distance one period away to its distance half a
+/// period away (out of phase) at and below which it fully recurs, and at
+/// and above which it does not recur at all.
+pub const RECUR_RATIO: (f32, f32) = (0.2, 0.6);
+
+/// Per pixel, in [0, 1], how exactly its structure recurs one period away
+/// (either side, the period found in the blocks around it by
+/// [`tiles::local_periods`], give or take a pixel along it: the period
+/// drifts in perspective), against half a period away: 1 up to the first
+/// of [`RECUR_RATIO`], 0 from the second up.
+/// Patches compare luminance high-passed at the patch's scale, and
+/// colour: not tone (boards and tiles differ in tone while their edges
+/// line up), and not gradient directions (a surface's grain gives every
+/// pixel a full-strength direction, which drowned the edge's repeat). This is what keeps a
+/// roof's tile courses, louvres, vents and locker seams out of the detail
+/// term: their patches are rare by density (an edge at every offset) but
+/// repeat at the local period, where a crack or a peel's edge does not.
+fn local_regularity(f: &Features, blocks: &[tiles::LocalPeriods], patch: usize) -> Image {
+    let app = &f.appearance;
+    let (w, h) = app.size();
+    let mut out = vec![0f32; w * h];
+    if blocks.is_empty() {
+        return Image::from_data(w, h, 1, out).expect("sizes match");
+    }
+    // Luminance high-passed at the patch's scale (an edge, not the tone
+    // of the board it is on), then colour.
+    let lum = app.select_channels(0..1);
+    let low = gaussian_blur(&lum, patch as f32);
+    let chroma = app.channels() >= 3;
+    let feature = Image::from_fn(w, h, if chroma { 3 } else { 1 }, |x, y, p| {
+        p[0] = lum.at(x, y, 0) - low.at(x, y, 0);
+        if chroma {
+            p[1] = RECUR_CHROMA * app.at(x, y, 1);
+            p[2] = RECUR_CHROMA * app.at(x, y, 2);
+        }
+    });
+    let r = (patch / 2) as i64;
+    let (wi, hi) = (w as i64, h as i64);
+    // Squared distance between the patches at (x, y) and (tx, ty); None
+    // when the second is not wholly inside.
+    let distance = |x: i64, y: i64, tx: i64, ty: i64| -> Option<f32> {
+        if tx < r || ty < r || tx + r >= wi || ty + r >= hi {
+            return None;
+        }
+        let mut sum = 0f32;
+        for v in -r..=r {
+            let (ay, by) = ((y + v).clamp(0, hi - 1) as usize, (ty + v) as usize);
+            for u in -r..=r {
+                let (ax, bx) = ((x + u).clamp(0, wi - 1) as usize, (tx + u) as usize);
+                sum += feature.pixel(ax, ay).iter().zip(feature.pixel(bx, by)).map(|(a, b)| (a - b) * (a - b)).sum::<f32>();
+            }
+        }
+        Some(sum)
+    };
+    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        for (x, o) in row.iter_mut().enumerate() {
+            let (xi, yi) = (x as i64, y as i64);
+            for block in blocks {
+                let (bx, by, bw, bh) = block.rect;
+                if x < bx || y < by || x >= bx + bw || y >= by + bh {
+                    continue;
+                }
+                for v in &block.vectors {
+                    let len = (v[0] * v[0] + v[1] * v[1]).sqrt().max(1e-6);
+                    let (ux, uy) = (v[0] / len, v[1] / len);
+                    let mut near = f32::INFINITY;
+                    let (mut far, mut far_n) = (0f32, 0);
+                    for s in [-1.0f32, 1.0] {
+                        for j in [-1.0f32, 0.0, 1.0] {
+                            let (dx, dy) = ((s * v[0] + j * ux).round() as i64, (s * v[1] + j * uy).round() as i64);
+                            if let Some(d) = distance(xi, yi, xi + dx, yi + dy) {
+                                near = near.min(d);
+                            }
+                        }
+                        let (dx, dy) = ((0.5 * s * v[0]).round() as i64, (0.5 * s * v[1]).round() as i64);
+                        if let Some(d) = distance(xi, yi, xi + dx, yi + dy) {
+                            far += d;
+                            far_n += 1;
+                        }
+                    }
+                    if far_n == 0 || !near.is_finite() {
+                        continue;
+                    }
+                    let far = far / far_n as f32;
+                    if far > 1e-6 {
+                        let (full, none) = RECUR_RATIO;
+                        *o = o.max(((none - near / far) / (none - full)).clamp(0.0, 1.0));
+                    }
+                }
+            }
+        }
+    });
+    Image::from_data(w, h, 1, out).expect("sizes match")
 }
 
 /// Bins per axis of the appearance histograms.

@@ -69,6 +69,55 @@ pub fn periods(img: &Image) -> Option<Periodicity> {
     }
 }
 
+/// Side of the blocks [`local_periods`] searches, as a share of the
+/// image's smaller side (at least [`LOCAL_MIN_SIDE`] px).
+pub const LOCAL_SHARE: f32 = 0.5;
+/// Smallest block side of [`local_periods`].
+pub const LOCAL_MIN_SIDE: usize = 96;
+
+/// A block of the image and the periods its structure repeats at there.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LocalPeriods {
+    /// Left, top, width, height.
+    pub rect: (usize, usize, usize, usize),
+    /// One (stripes) or two (a grid) period vectors, in pixels.
+    pub vectors: Vec<[f32; 2]>,
+}
+
+/// Regular structure that repeats only locally: tile courses seen in
+/// perspective, louvres, a row of vents or locker doors beside a plain
+/// wall. The whole-image detector ([`periods`]) misses them, since their
+/// period drifts across the image or holds in part of it only. The same
+/// detector runs in overlapping blocks (half a block apart, side
+/// [`LOCAL_SHARE`] of the image's smaller side) on the `appearance`
+/// features; blocks with no repeat are left out.
+pub fn local_periods(appearance: &Image) -> Vec<LocalPeriods> {
+    let (w, h) = appearance.size();
+    let side = ((LOCAL_SHARE * w.min(h) as f32) as usize).max(LOCAL_MIN_SIDE);
+    if side > w || side > h {
+        return Vec::new();
+    }
+    let starts = |n: usize| -> Vec<usize> {
+        let step = (side / 2).max(1);
+        let mut s: Vec<usize> = (0..=n - side).step_by(step).collect();
+        if *s.last().expect("n >= side") != n - side {
+            s.push(n - side);
+        }
+        s
+    };
+    let rects: Vec<(usize, usize, usize, usize)> =
+        starts(h).into_iter().flat_map(|y| starts(w).into_iter().map(move |x| (x, y, side, side))).collect();
+    let weights = vec![1.0; appearance.channels()];
+    rects
+        .into_par_iter()
+        .filter_map(|rect| {
+            let block = appearance.crop(rect.0, rect.1, rect.2, rect.3).ok()?;
+            let lattice = crate::synth::lattice::Lattice::detect(&block, &weights)?;
+            Some(LocalPeriods { rect, vectors: lattice.periods })
+        })
+        .collect()
+}
+
 /// Share of the image's edge strength a median repeat must keep to count
 /// as the texture's template (see [`keeps_structure`]).
 pub const SHARPNESS: f32 = 0.6;
