@@ -763,3 +763,46 @@ fn courses_in_perspective_do_not_age_and_the_spots_on_them_do() {
     assert!(auc >= 0.9, "the rust spots among perspective courses: AUC {auc:.3}");
     assert!(on_edges <= 0.4 * on_spots, "course edges age {on_edges:.3} against the spots' {on_spots:.3}");
 }
+
+/// Rust blooms in four discs of [`samples::disc_grid`] (the stained
+/// circle tiles of ../shared/data) grow within their own discs before
+/// they cross the rims: the intact texture's strongest edges (the discs'
+/// rims) slow the front. Measured at t = 3, the share of the new rust
+/// outside the blooms' discs: 0.045 with the barrier, 0.124 without it
+/// (0.036 with a barrier twice as strong). At t = 4 the discs are full
+/// and both cross.
+#[test]
+fn damage_fills_its_own_tile_before_crossing_its_rim() {
+    let period = 40;
+    let base = samples::disc_grid(SIZE, SIZE, period, 5);
+    let hit = [(0usize, 1usize), (2, 0), (1, 3), (3, 2)];
+    let centre = |(i, j): (usize, usize)| ((i * period) as f32 + period as f32 / 2.0, (j * period) as f32 + period as f32 / 2.0);
+    let in_disc =
+        |x: usize, y: usize, t: (usize, usize)| (x as f32 + 0.5 - centre(t).0).hypot(y as f32 + 0.5 - centre(t).1) < 0.45 * period as f32;
+    let bloom = |x: usize, y: usize| hit.iter().any(|&t| (x as f32 + 0.5 - centre(t).0).hypot(y as f32 + 0.5 - centre(t).1) < 6.0);
+    let img = Image::from_fn(SIZE, SIZE, 3, |x, y, p| {
+        for c in 0..3 {
+            p[c] = if bloom(x, y) { [0.6, 0.28, 0.1][c] + 0.2 * (base.at(x, y, c) - 0.4) } else { base.at(x, y, c) };
+        }
+    });
+    let mask = patina::image::Mask::from_fn(SIZE, SIZE, bloom);
+    let last = grown_to(&img, &mask, 3, 3.0);
+    let (mut inside, mut outside) = (0usize, 0usize);
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            let q = last.pixel(x, y);
+            let rusty = q[0] > q[1] + 0.1 && q[1] > q[2];
+            if rusty && !mask.get(x, y) {
+                if hit.iter().any(|&t| in_disc(x, y, t)) {
+                    inside += 1;
+                } else {
+                    outside += 1;
+                }
+            }
+        }
+    }
+    let share = outside as f32 / (inside + outside).max(1) as f32;
+    eprintln!("new rust: {inside} px in the blooms' discs, {outside} px beyond them ({share:.3})");
+    assert!(inside > 400, "the blooms barely grew: {inside} new px in their discs");
+    assert!(share <= 0.08, "{share:.3} of the new rust crossed the rims");
+}

@@ -39,7 +39,7 @@
 
 use super::sequence::{Frame, SequenceParams};
 use crate::error::{Error, Result};
-use crate::image::filter::{gaussian_blur, orientation, Orientation};
+use crate::image::filter::{gaussian_blur, gradients, orientation, Orientation};
 use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};
 use crate::samples::fractal_noise;
@@ -82,6 +82,13 @@ pub const NUCLEATION_DENSITY: f32 = 0.25;
 /// How much slower the front crosses a fully coherent structure than it
 /// runs along it, minus one.
 pub const ANISOTROPY: f32 = 4.0;
+/// How much slower the front enters a pixel on the intact material's
+/// strongest edges ([`structure_barrier`] 1: grout, a tile's rim, a seam
+/// between boards) than one on plain material, minus one.
+pub const BARRIER: f32 = 6.0;
+/// Quantile of the intact texture's edge strength at and above which a
+/// pixel is a full barrier; the median is none.
+const BARRIER_QUANTILE: f32 = 0.98;
 /// Blur (px) of the arrival times.
 const FRONT_SMOOTHING: f32 = 1.5;
 /// Blur (px) of the grown damage's outline before it is thresholded.
@@ -100,7 +107,15 @@ const CONTEXT_GUIDE: f32 = 1.0;
 /// Arrival time of the weathering at every pixel (0 on weathered pixels;
 /// infinite outside `within`, when given, which the front never leaves).
 /// With `nucleate`, a few clean pixels start fronts of their own.
-pub fn arrival_times(age: &Image, weathered: &Mask, within: Option<&Mask>, structure: &Orientation, nucleate: bool, seed: u64) -> Vec<f32> {
+pub fn arrival_times(
+    age: &Image,
+    weathered: &Mask,
+    within: Option<&Mask>,
+    structure: &Orientation,
+    barrier: Option<&[f32]>,
+    nucleate: bool,
+    seed: u64,
+) -> Vec<f32> {
     let (w, h) = age.size();
     let mut g = rng::generator(seed, &[0x9a0]);
     let noise_seed = rng::derive(seed, &[0x9a1]);
@@ -167,7 +182,8 @@ pub fn arrival_times(age: &Image, weathered: &Mask, within: Option<&Mask>, struc
             // Slower across the structure than along it: peels run along
             // the grain, cracks along cracks.
             let cos = (dx as f32 * across[i].0 + dy as f32 * across[i].1) / len;
-            let t = time[i] + len * 2.0 / (speed[i] + speed[j]) * (1.0 + ANISOTROPY * across[i].2 * cos * cos);
+            let wall = barrier.map_or(1.0, |b| 1.0 + BARRIER * b[j]);
+            let t = time[i] + len * 2.0 / (speed[i] + speed[j]) * (1.0 + ANISOTROPY * across[i].2 * cos * cos) * wall;
             if t < time[j] {
                 time[j] = t;
                 heap.push(Reverse((key(t), j as u32)));
@@ -186,7 +202,15 @@ pub fn arrival_times(age: &Image, weathered: &Mask, within: Option<&Mask>, struc
 }
 
 /// Frames for t > 1 grown by front propagation (see the module docs).
-pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, seed: u64, progress: &dyn Fn(usize)) -> Result<Vec<Frame>> {
+pub fn future(
+    input: &Image,
+    intact: &Image,
+    age: &Image,
+    cut: f32,
+    params: &SequenceParams,
+    seed: u64,
+    progress: &dyn Fn(usize),
+) -> Result<Vec<Frame>> {
     let (w, h) = input.size();
     if age.size() != input.size() {
         return Err(Error::invalid("the input and its age map must have one size"));
@@ -196,7 +220,11 @@ pub fn future(input: &Image, age: &Image, cut: f32, params: &SequenceParams, see
     }
     let weathered = Mask::from_fn(w, h, |x, y| age.at(x, y, 0) >= cut);
     let clean = Mask::from_fn(w, h, |x, y| !weathered.get(x, y));
-    let arrival = arrival_times(age, &weathered, None, &orientation(input, STRUCTURE_SIGMA, Some(&clean)), true, seed);
+    if intact.size() != input.size() {
+        return Err(Error::invalid("the input and its intact texture must have one size"));
+    }
+    let barrier = structure_barrier(intact);
+    let arrival = arrival_times(age, &weathered, None, &orientation(input, STRUCTURE_SIGMA, Some(&clean)), Some(&barrier), true, seed);
     // Arrival times of the clean pixels, sorted: the quantiles set the front.
     let mut clean_times: Vec<f32> = arrival.iter().zip(weathered.bits()).filter(|(_, &b)| !b).map(|(t, _)| *t).collect();
     clean_times.sort_by(f32::total_cmp);
@@ -305,6 +333,21 @@ fn damage_layer(
     // grown interiors with a third of the input damage's pixel detail.
     filled.coherent_copies(input, hole);
     Ok(filled.image)
+}
+
+/// Per pixel, in [0, 1], how strongly the intact material's own structure
+/// stops a growing front: its edge strength (Sobel magnitude after a 1 px
+/// blur) from the median (0) to the [`BARRIER_QUANTILE`] (1). Only the
+/// material's strongest edges count, the grout and rims of tiles, seams
+/// between boards, so a stain fills its tile before it crosses to the
+/// next, and plain or grainy material is no barrier.
+fn structure_barrier(intact: &Image) -> Vec<f32> {
+    let g = gradients(&gaussian_blur(intact, 1.0)).magnitude;
+    let mut sorted = g.data().to_vec();
+    sorted.sort_by(f32::total_cmp);
+    let at = |q: f32| sorted[((sorted.len() - 1) as f32 * q) as usize];
+    let (median, top) = (at(0.5), at(BARRIER_QUANTILE));
+    g.data().iter().map(|&m| if top > median { ((m - median) / (top - median)).clamp(0.0, 1.0) } else { 0.0 }).collect()
 }
 
 /// Least change of a pixel's clamped edge distance, in bands, that makes

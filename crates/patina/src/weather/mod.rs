@@ -185,7 +185,7 @@ pub fn weather(
                 Some((cut, _)) => cut,
                 None => intact::weathered_cut(&age, params.intact.weathered_max).0,
             };
-            growth::future(input, &age, cut, sp, crate::rng::derive(seed, &[3]), &future_progress)?
+            growth::future(input, &intact_img, &age, cut, sp, crate::rng::derive(seed, &[3]), &future_progress)?
         }
         Growth::Patches => sequence::future(input, &intact_img, &age, cells, patch, sp, crate::rng::derive(seed, &[3]), &future_progress)?,
     };

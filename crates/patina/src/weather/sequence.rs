@@ -218,7 +218,7 @@ fn change_ranks(input: &Image, intact: &Image, age: &Image, seed: u64) -> Result
         seeds.set(i % w, i / w, true);
     }
     let structure = orientation(intact, super::growth::STRUCTURE_SIGMA, None);
-    let arrival = super::growth::arrival_times(&smooth, &seeds, Some(&changed), &structure, false, seed);
+    let arrival = super::growth::arrival_times(&smooth, &seeds, Some(&changed), &structure, None, false, seed);
     let mut times: Vec<f32> = changed.bits().iter().zip(&arrival).filter(|(&b, t)| b && t.is_finite()).map(|(_, &t)| t).collect();
     let scale = if times.is_empty() {
         1.0
