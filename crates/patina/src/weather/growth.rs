@@ -239,16 +239,12 @@ pub fn future(
     let context = context(input, patch);
     // The front at each frame's time: the clean share weathered by t.
     let initial = weathered.count() as f32 / (w * h) as f32;
-    let fronts: Vec<(f32, f32)> = (1..=params.future)
+    // Per frame, its time and the count of pixels weathered by then.
+    let fronts: Vec<(f32, usize)> = (1..=params.future)
         .map(|k| {
             let t = 1.0 + params.future_span * k as f32 / params.future as f32;
             let share = clean_share_weathered(initial, t);
-            let front = if clean_times.is_empty() {
-                0.0
-            } else {
-                clean_times[((share * clean_times.len() as f32) as usize).min(clean_times.len() - 1)]
-            };
-            (t, front)
+            (t, weathered.count() + (share * clean_times.len() as f32).round() as usize)
         })
         .collect();
     // Per frame, the damaged pixels to re-draw: those whose place relative
@@ -257,30 +253,63 @@ pub fn future(
     let was = clamped_edge(&weathered, band);
     let mut drawn = was.clone();
     let mut reached = weathered.clone();
+    let mut covered = weathered.clone();
+    let mut start = 0;
     let redraws: Vec<Mask> = fronts
         .iter()
-        .map(|&(_, front)| {
+        .map(|&(_, target)| {
             // The front's outline, smoothed: the arrival times' level set
             // on the pixel grid has 1 px ticks, hatching and stair-steps
             // (the 8-neighbour steps); a blur of the reached pixels,
             // thresholded at a half, keeps its shape without them (and
             // stays monotone in t, as blur and threshold both are).
-            let raw = Image::from_fn(w, h, 1, |x, y, p| p[0] = if front >= arrival[y * w + x] { 1.0 } else { 0.0 });
-            let smooth = gaussian_blur(&raw, OUTLINE_SMOOTHING);
-            reached = Mask::from_fn(w, h, |x, y| reached.get(x, y) || smooth.at(x, y, 0) >= 0.5);
-            let edge = clamped_edge(&reached, band);
-            // Slivers under 3 px wide are not re-drawn: drawn beside the
-            // previous frame's pixels, they showed as flecks along cracks
-            // and edges. They join a later, wider re-draw or keep the input.
-            let redraw = Mask::from_fn(w, h, |x, y| {
-                let i = y * w + x;
-                reached.get(x, y) && (edge[i] - drawn[i]).abs() > REDRAW_STEP
-            })
-            .erode(1)
-            .dilate(1);
+            let outline = |front: f32| {
+                let raw = Image::from_fn(w, h, 1, |x, y, p| p[0] = if front >= arrival[y * w + x] { 1.0 } else { 0.0 });
+                let smooth = gaussian_blur(&raw, OUTLINE_SMOOTHING);
+                Mask::from_fn(w, h, |x, y| reached.get(x, y) || smooth.at(x, y, 0) >= 0.5)
+            };
+            // The pixels to re-draw for a reached outline. Slivers under
+            // 3 px wide are not re-drawn: drawn beside the previous frame's
+            // pixels, they showed as flecks along cracks and edges. They
+            // join a later, wider re-draw or keep the input.
+            let redraw_of = |now: &Mask| {
+                let edge = clamped_edge(now, band);
+                let redraw = Mask::from_fn(w, h, |x, y| {
+                    let i = y * w + x;
+                    now.get(x, y) && (edge[i] - drawn[i]).abs() > REDRAW_STEP
+                })
+                .erode(1)
+                .dilate(1);
+                (redraw, edge)
+            };
+            // The front is the earliest at which the damage drawn so far
+            // (the input's and every re-draw) holds the frame's share. The
+            // arrival times' own quantile left fine damage (lichen dots)
+            // at half its share: the outline's smoothing rounds small
+            // growth away and the slivers are not drawn.
+            let drawn_with = |front: f32| {
+                let now = outline(front);
+                let (redraw, edge) = redraw_of(&now);
+                let count = (0..w * h).filter(|&i| covered.bits()[i] || redraw.bits()[i]).count();
+                (now, redraw, edge, count)
+            };
+            let (mut lo, mut hi) = (start, clean_times.len().saturating_sub(1));
+            while lo < hi {
+                let mid = (lo + hi) / 2;
+                if drawn_with(clean_times[mid]).3 >= target {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            start = lo;
+            let front = clean_times.get(lo).copied().unwrap_or(0.0);
+            let (now, redraw, edge, _) = drawn_with(front);
+            reached = now;
             for (i, d) in drawn.iter_mut().enumerate() {
                 if redraw.bits()[i] {
                     *d = edge[i];
+                    covered.set(i % w, i / w, true);
                 }
             }
             redraw
