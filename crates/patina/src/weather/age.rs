@@ -221,7 +221,7 @@ pub fn age_map(img: &Image, params: &AgeParams) -> Result<AgeMap> {
 /// Rescale `values` so that `lo_q` of `reference` maps to 0 and the
 /// `hi_q` quantile of `values` to 1, clamped: robust to a few extreme
 /// pixels at the top and to the spread of ordinary material at the bottom.
-fn rescale(values: &mut [f32], reference: &[f32], lo_q: f32, hi_q: f32) {
+pub(crate) fn rescale(values: &mut [f32], reference: &[f32], lo_q: f32, hi_q: f32) {
     let quantile = |v: &[f32], q: f32| -> f32 {
         let mut s = v.to_vec();
         let i = ((s.len().max(1) - 1) as f32 * q) as usize;
@@ -468,9 +468,9 @@ fn regularity(f: &Features, v: [f32; 2], patch: usize) -> Image {
 }
 
 /// Weight of a colour difference (Lab a and b, over 100) against a
-/// gradient-direction difference in [`local_regularity`]: lichen or rust
-/// on a repeated tile lip breaks the repeat, a lip that is only lighter
-/// or darker than the next does not.
+/// high-passed luminance difference in [`local_regularity`]: lichen or
+/// rust on a repeated tile lip breaks the repeat, a lip that is only
+/// lighter or darker than the next does not.
 const RECUR_CHROMA: f32 = 4.0;
 /// The ratio of a patch's distance one period away to its distance half a
 /// period away (out of phase) at and below which it fully recurs, and at
@@ -485,10 +485,11 @@ pub const RECUR_RATIO: (f32, f32) = (0.2, 0.6);
 /// Patches compare luminance high-passed at the patch's scale, and
 /// colour: not tone (boards and tiles differ in tone while their edges
 /// line up), and not gradient directions (a surface's grain gives every
-/// pixel a full-strength direction, which drowned the edge's repeat). This is what keeps a
-/// roof's tile courses, louvres, vents and locker seams out of the detail
-/// term: their patches are rare by density (an edge at every offset) but
-/// repeat at the local period, where a crack or a peel's edge does not.
+/// pixel a full-strength direction, which drowned the edge's repeat).
+/// This is what keeps a roof's tile courses, louvres, vents and locker
+/// seams out of the detail term: their patches are rare by density (an
+/// edge at every offset) but repeat at the local period, where a crack or
+/// a peel's edge does not.
 fn local_regularity(f: &Features, blocks: &[tiles::LocalPeriods], patch: usize) -> Image {
     let app = &f.appearance;
     let (w, h) = app.size();

@@ -215,17 +215,17 @@ pub fn future(
     if age.size() != input.size() {
         return Err(Error::invalid("the input and its age map must have one size"));
     }
+    if intact.size() != input.size() {
+        return Err(Error::invalid("the input and its intact texture must have one size"));
+    }
     if params.future_span.is_nan() || params.future_span <= 0.0 {
         return Err(Error::invalid("future frames need a positive span"));
     }
     let weathered = Mask::from_fn(w, h, |x, y| age.at(x, y, 0) >= cut);
     let clean = Mask::from_fn(w, h, |x, y| !weathered.get(x, y));
-    if intact.size() != input.size() {
-        return Err(Error::invalid("the input and its intact texture must have one size"));
-    }
     let barrier = structure_barrier(intact);
     let arrival = arrival_times(age, &weathered, None, &orientation(input, STRUCTURE_SIGMA, Some(&clean)), Some(&barrier), true, seed);
-    // Arrival times of the clean pixels, sorted: the quantiles set the front.
+    // Arrival times of the clean pixels, sorted: each frame's front is searched among them.
     let mut clean_times: Vec<f32> = arrival.iter().zip(weathered.bits()).filter(|(_, &b)| !b).map(|(t, _)| *t).collect();
     clean_times.sort_by(f32::total_cmp);
     let patch = params.rebuild.patch;
@@ -237,9 +237,9 @@ pub fn future(
     // front instead of staying as a ring inside new damage.
     let band = edge_band(patch);
     let context = context(input, patch);
-    // The front at each frame's time: the clean share weathered by t.
+    // Per frame, its time and the count of pixels weathered by then: the
+    // input's and the clean share weathered by t.
     let initial = weathered.count() as f32 / (w * h) as f32;
-    // Per frame, its time and the count of pixels weathered by then.
     let fronts: Vec<(f32, usize)> = (1..=params.future)
         .map(|k| {
             let t = 1.0 + params.future_span * k as f32 / params.future as f32;
@@ -371,12 +371,10 @@ fn damage_layer(
 /// between boards, so a stain fills its tile before it crosses to the
 /// next, and plain or grainy material is no barrier.
 fn structure_barrier(intact: &Image) -> Vec<f32> {
-    let g = gradients(&gaussian_blur(intact, 1.0)).magnitude;
-    let mut sorted = g.data().to_vec();
-    sorted.sort_by(f32::total_cmp);
-    let at = |q: f32| sorted[((sorted.len() - 1) as f32 * q) as usize];
-    let (median, top) = (at(0.5), at(BARRIER_QUANTILE));
-    g.data().iter().map(|&m| if top > median { ((m - median) / (top - median)).clamp(0.0, 1.0) } else { 0.0 }).collect()
+    let mut barrier = gradients(&gaussian_blur(intact, 1.0)).magnitude.data().to_vec();
+    let reference = barrier.clone();
+    super::age::rescale(&mut barrier, &reference, 0.5, BARRIER_QUANTILE);
+    barrier
 }
 
 /// Least change of a pixel's clamped edge distance, in bands, that makes
