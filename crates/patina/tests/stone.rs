@@ -159,6 +159,77 @@ fn carvings_wear_away_while_the_grain_stays_and_no_lattice_appears() {
     );
 }
 
+/// Raised letters with sharp edges on speckled stone (granite), the
+/// edges' finest band as strong as the speckle: at t = 200 the letters'
+/// edges wear away while the speckle between them stays.
+#[test]
+fn sharp_letter_edges_wear_on_speckled_stone_while_the_speckle_stays() {
+    // Strokes 8 px wide, alternately across and down the carved field.
+    let letter = |x: usize, y: usize| {
+        (0..4).any(|k| {
+            let (x0, y0) = (64 + 17 * k, 56 + 12 * (k % 2));
+            if k % 2 == 0 {
+                (x0..x0 + 14).contains(&x) && (y0..y0 + 8).contains(&y)
+            } else {
+                (x0..x0 + 8).contains(&x) && (y0..y0 + 30).contains(&y)
+            }
+        })
+    };
+    // The relief alone: a bright face and a 4 px shadow below and right.
+    let relief = Image::from_fn(W, H, 1, |x, y, p| {
+        let shadow = !letter(x, y) && (1..=4).any(|d| letter(x.saturating_sub(d), y) || letter(x, y.saturating_sub(d)));
+        p[0] = 0.5
+            + if letter(x, y) {
+                0.2
+            } else if shadow {
+                -0.25
+            } else {
+                0.0
+            };
+    });
+    // Per-pixel speckle as strong as the edges' finest band.
+    let speckle = |x: usize, y: usize| 0.3 * ((patina::rng::derive(23, &[x as u64, y as u64]) >> 40) as f32 / (1u64 << 24) as f32 - 0.5);
+    let input = Image::from_fn(W, H, 3, |x, y, p| {
+        let a = coverage(x, y);
+        let v = relief.at(x, y, 0) + speckle(x, y);
+        p.iter_mut().zip(background(x, y)).for_each(|(o, b)| *o = a * v + (1.0 - a) * b);
+    });
+    let params = StoneParams { roughen: false, pits: false, erosion: false, n: 400.0, ..Default::default() };
+    let prep = stone::prepare(&input, Some(&slab()), None, &params).unwrap();
+    let frames = stone::sequence(&prep, &[0.0, 200.0], 1, None).unwrap();
+    // Detail under a Gaussian of `sigma`, and the share of the relief's
+    // detail an image holds where the relief has some (by regression).
+    let detail = |l: &Image, sigma: f32| {
+        let s = gaussian_blur(l, sigma);
+        Image::from_fn(W, H, 1, |x, y, p| p[0] = l.at(x, y, 0) - s.at(x, y, 0))
+    };
+    let share = |l: &Image, sigma: f32| {
+        let (truth, d) = (detail(&relief, sigma), detail(l, sigma));
+        let (cov, var) = (0..W * H)
+            .filter(|&i| truth.data()[i].abs() > 0.03)
+            .fold((0f32, 0f32), |(c, v), i| (c + d.data()[i] * truth.data()[i], v + truth.data()[i].powi(2)));
+        cov / var
+    };
+    // The edges' finest band (under 2.5 px), as the photo holds it.
+    let (before, after) = (share(&luminance(&input), 2.5), share(&luminance(&frames[1].image), 2.5));
+    // How much of the letters shows (detail under 6 px) once the speckle,
+    // the ground truth the test made, is taken out.
+    let unspeckled = |img: &Image| {
+        let l = luminance(img);
+        Image::from_fn(W, H, 1, |x, y, p| p[0] = l.at(x, y, 0) - speckle(x, y))
+    };
+    let shows = share(&unspeckled(&frames[1].image), 6.0);
+    // The speckle, measured on the plain slab away from the letters.
+    let inner = slab().erode(6);
+    let plain: Vec<usize> = (0..W * H).filter(|&i| inner.bits()[i] && !carved(i)).collect();
+    let grain = band_energy(&frames[1].image, &plain, 0.0, 1.0) / band_energy(&input, &plain, 0.0, 1.0);
+    eprintln!("letter edges kept {after:.2} of {before:.2}, letters show {shows:.2}, speckle kept {grain:.2}");
+    assert!(before > 0.9, "the input holds {before:.2} of its edges");
+    assert!(after < 0.6, "the letters' edges kept {after:.2}");
+    assert!(shows < 0.5, "the letters show at {shows:.2}");
+    assert!(grain > 0.9, "the speckle kept {grain:.2}");
+}
+
 /// Grime in the grooves (brown, the stronger the deeper) is colour on the
 /// stone, not relief: as the carving wears, the grooves keep their tint.
 #[test]
