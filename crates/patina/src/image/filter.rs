@@ -211,31 +211,6 @@ pub fn closing(img: &Image, r: usize) -> Image {
     pass(&pass(&dilated, true, false), false, false)
 }
 
-/// The median over a (2r+1)^2 square around each pixel, per channel
-/// (clamped at the image's edges): it removes specks narrower than the
-/// square and keeps step edges and wider features sharp, so `img - median`
-/// is the texture and the median its structure.
-pub fn median(img: &Image, r: usize) -> Image {
-    let (w, h, c) = (img.width(), img.height(), img.channels());
-    let mut out = vec![0f32; w * h * c];
-    out.par_chunks_mut(w * c).enumerate().for_each(|(y, row)| {
-        let mut window = Vec::with_capacity((2 * r + 1).pow(2));
-        let rows = y.saturating_sub(r)..(y + r + 1).min(h);
-        for x in 0..w {
-            let cols = x.saturating_sub(r)..(x + r + 1).min(w);
-            for ch in 0..c {
-                window.clear();
-                for q in rows.clone() {
-                    window.extend(cols.clone().map(|p| img.at(p, q, ch)));
-                }
-                let mid = window.len() / 2;
-                row[x * c + ch] = *window.select_nth_unstable_by(mid, f32::total_cmp).1;
-            }
-        }
-    });
-    Image::from_data(w, h, c, out).expect("same size")
-}
-
 /// Otsu's threshold of `values` (64 bins over their range).
 pub fn otsu(values: &[f32]) -> f32 {
     let (lo, hi) = values.iter().fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)));
@@ -267,17 +242,6 @@ pub fn otsu(values: &[f32]) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn median_removes_specks_and_keeps_a_step_sharp() {
-        // A step at x = 16 with a bright speck on each side.
-        let img = Image::from_fn(32, 16, 1, |x, y, p| {
-            p[0] = if x < 16 { 0.2 } else { 0.8 } + if (x, y) == (6, 8) || (x, y) == (24, 5) { 0.5 } else { 0.0 }
-        });
-        let m = median(&img, 2);
-        assert!((m.at(6, 8, 0) - 0.2).abs() < 1e-6 && (m.at(24, 5, 0) - 0.8).abs() < 1e-6, "specks are removed");
-        assert!((m.at(15, 8, 0) - 0.2).abs() < 1e-6 && (m.at(16, 8, 0) - 0.8).abs() < 1e-6, "the step stays a one-pixel step");
-    }
 
     #[test]
     fn closing_fills_narrow_dark_features_and_keeps_wide_ones() {

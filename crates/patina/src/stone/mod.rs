@@ -132,11 +132,11 @@ pub struct Prepared {
     pub patches: Vec<Patch>,
     /// Each patch's best-match offset c1 - c0 under eq. (1).
     pub offsets: Vec<(isize, isize)>,
-    /// The relief: `original` (gamma-encoded) without its grain
-    /// ([`relief_and_grain`]): the form and the carved edges.
+    /// The relief: `original` (gamma-encoded) without its finest band (a
+    /// Gaussian of [`GRAIN_SIGMA`]).
     pub base: Image,
-    /// `original - base`: the finest band of the stone's texture, its grain.
-    /// The patch update treats it apart ([`update::update`]).
+    /// `original - base`: the finest band, the stone's grain and the sharpest
+    /// carved edges. The patch update treats it apart ([`update::update`]).
     pub grain: Image,
     /// The patch scale (px): sqrt(object pixels / patches). The update
     /// follows borrowed gradients up to this scale.
@@ -225,7 +225,10 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
     // The relief is worn in the photo's gamma encoding: in linear light a
     // shadow's gradients are small and survived while highlights went, so
     // raised letters turned into dark smudges.
-    let (base, grain) = relief_and_grain(&rgb);
+    let base = crate::image::filter::gaussian_blur(&rgb, GRAIN_SIGMA);
+    let grain = Image::from_fn(w, h, 3, |x, y, p| {
+        p.iter_mut().zip(rgb.pixel(x, y).iter().zip(base.pixel(x, y))).for_each(|(o, (l, b))| *o = l - b)
+    });
     let borrowing = update::Borrowing::new(&tendency, &grain, &mask, (&patches, &offsets), scale);
     let own_pits = pits::OwnPits::find(&linear, &tight);
     let plants = crate::image::filter::gaussian_blur(&select::plants(&rgb, &tight).dilate(1).to_image(), PLANT_EDGE_SIGMA)
@@ -249,39 +252,6 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         params: params.clone(),
     })
 }
-
-/// The photo split as `(relief, grain)`, relief + grain = `rgb`: the grain
-/// is the finest band (detail under a Gaussian of [`GRAIN_SIGMA`]) of the
-/// photo's texture, `rgb` less its median over a square of radius
-/// [`STRUCTURE_RADIUS`]; the relief is the rest, the form and every carved
-/// edge, sharp ones included.
-///
-/// Not in the paper, which wears the whole photo. A plain band split put
-/// the sharp edges of carved letters in the finest band beside the grain:
-/// on speckled granite the two have the same amplitude, so the letters'
-/// edges were kept as grain and the inscription stayed crisp at t = 200.
-/// The median keeps a step edge and removes specks narrower than its
-/// square, so the edges join the relief and wear with it, while the
-/// crystals' speckle stays as grain.
-fn relief_and_grain(rgb: &Image) -> (Image, Image) {
-    use crate::image::filter::{gaussian_blur, median};
-    let structure = median(rgb, STRUCTURE_RADIUS);
-    let (blurred, structure_blurred) = (gaussian_blur(rgb, GRAIN_SIGMA), gaussian_blur(&structure, GRAIN_SIGMA));
-    let grain = Image::from_fn(rgb.width(), rgb.height(), rgb.channels(), |x, y, p| {
-        for (c, o) in p.iter_mut().enumerate() {
-            *o = (rgb.at(x, y, c) - structure.at(x, y, c)) - (blurred.at(x, y, c) - structure_blurred.at(x, y, c));
-        }
-    });
-    let relief = Image::from_fn(rgb.width(), rgb.height(), rgb.channels(), |x, y, p| {
-        p.iter_mut().enumerate().for_each(|(c, o)| *o = rgb.at(x, y, c) - grain.at(x, y, c))
-    });
-    (relief, grain)
-}
-
-/// Radius (px) of the median that separates the stone's texture from its
-/// structure ([`relief_and_grain`]): specks up to about 2 px across are
-/// texture.
-pub const STRUCTURE_RADIUS: usize = 2;
 
 /// Where weathered stone is borrowed from: the object proper without a
 /// band of one patch scale along its outline (at most [`MAX_SOURCE_MARGIN`]
