@@ -45,8 +45,6 @@ pub struct Erosion {
     protection: Vec<f32>,
     /// Share of a removed pixel's colour bled into its inner neighbours.
     pub bleed: f32,
-    /// The rim the object's mask was dilated by ([`Erosion::rim_goes_first`]).
-    rim: Mask,
 }
 
 impl Erosion {
@@ -73,35 +71,7 @@ impl Erosion {
             .collect();
         let room = room_behind(object);
         let protection = thinness(object).iter().zip(room.bits()).map(|(&p, &r)| if r { p } else { 0.0 }).collect();
-        Erosion { object: object.clone(), colours: linear.clone(), durability, protection, bleed, rim: Mask::filled(w, h, false) }
-    }
-
-    /// Object pixels outside `given` (the mask before it was dilated to
-    /// take in the photo's anti-aliased rim) go as soon as they are on the
-    /// outline, without bleeding their colour (they are mostly background):
-    /// the rim is stripped in the first iterations (as many as the
-    /// dilation's width, [`Erosion::rim_steps`]) and the erosion of the
-    /// stone proper starts from its own outline. Otherwise the first
-    /// iterations only wore away the rim, which is no stone to see go: a
-    /// statue under an automatic mask (dilated 4 px) lost nothing visible by
-    /// t = 100 (a blind review).
-    pub fn rim_goes_first(&mut self, given: &Mask) {
-        let (w, h) = self.object.size();
-        self.rim = Mask::from_fn(w, h, |x, y| self.object.get(x, y) && !given.get(x, y));
-        for i in set_pixels(&self.rim) {
-            self.durability[i] = 0.0;
-        }
-    }
-
-    /// Iterations that strip the rim ([`Erosion::rim_goes_first`]) before
-    /// the stone proper: the rim's width in 4-neighbour steps, at most
-    /// `dilation` (the dilation is a square, its corners twice as deep).
-    pub fn rim_steps(&self, dilation: usize) -> usize {
-        if self.rim.count() == 0 {
-            0
-        } else {
-            dilation
-        }
+        Erosion { object: object.clone(), colours: linear.clone(), durability, protection, bleed }
     }
 
     /// Eq. (5), the erosion rate of a silhouette pixel: the exposed share of
@@ -149,8 +119,7 @@ impl Erosion {
         let mut removed = Vec::new();
         for (i, rate) in rates {
             self.durability[i] -= rate * self.protection[i];
-            // Unprotected pixels (no room behind) stay, the rim's included.
-            if self.durability[i] <= 0.0 && self.protection[i] > 0.0 {
+            if self.durability[i] <= 0.0 {
                 removed.push(i);
             }
         }
@@ -158,7 +127,7 @@ impl Erosion {
             self.object.set(i % w, i / w, false);
         }
         let c = self.colours.channels();
-        for &i in removed.iter().filter(|&&i| !self.rim.bits()[i]) {
+        for &i in &removed {
             let (x, y) = (i % w, i / w);
             let colour: Vec<f32> = self.colours.pixel(x, y).to_vec();
             for (a, b) in neighbours(x, y, w, h) {

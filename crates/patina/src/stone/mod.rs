@@ -122,8 +122,6 @@ pub struct Prepared {
     pub original: Image,
     /// The object: the given mask dilated by `params.mask_dilation`.
     pub mask: Mask,
-    /// The mask as given, before the dilation.
-    pub given: Mask,
     /// The only pixels weathered stone is borrowed from: the object proper
     /// (the given mask; the rim is part stone, part background) less a band
     /// along its outline ([`sources`]).
@@ -239,7 +237,6 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         linear,
         original: rgb,
         mask,
-        given: tight,
         sources,
         masked,
         tendency,
@@ -311,11 +308,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     let fractal = prep.fractal.render(w, h, seed);
     let erode = p.erosion && prep.masked && prep.mask.count() < w * h;
     let mut erosion = Erosion::new(&prep.linear, &prep.mask, p.bleed, seed);
-    erosion.rim_goes_first(&prep.given);
     let object_pixels = prep.mask.count();
-    // Iterations up to time t: the rim's first, then the paper's count.
-    let rim_steps = erosion.rim_steps(p.mask_dilation);
-    let steps = |t: f32| if t > 0.0 { rim_steps + erosion::iterations(object_pixels, p.erosion_speed, t) } else { 0 };
     let chips = update::chips(w, h, seed);
     // Roughening and pits follow the tendency where the photo is sharp
     // ([`update::Borrowing::sharpness`]).
@@ -326,7 +319,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
     // takes its fill from the same image and the fill does not flicker.
     let behind = if erode {
         let mut last = erosion.clone();
-        let end = steps(times[times.len() - 1]);
+        let end = erosion::iterations(object_pixels, p.erosion_speed, times[times.len() - 1]);
         (0..end).for_each(|_| last.step());
         let lost = Mask::from_fn(w, h, |x, y| prep.mask.get(x, y) && !last.object.get(x, y));
         let near = lost.dilate(erosion::EDGE_BAND);
@@ -349,7 +342,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         let rough = if p.pits { prep.own_pits.keep(&pits::pit(&rough, &focused, p.k, t, seed), p.k, t) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
         if erode {
-            let target = steps(t);
+            let target = erosion::iterations(object_pixels, p.erosion_speed, t);
             while done < target {
                 erosion.step();
                 done += 1;
