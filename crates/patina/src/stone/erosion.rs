@@ -492,22 +492,28 @@ mod tests {
         assert!(seams < 2.5 * typical, "the step across a cell border is {seams:.3}, elsewhere {typical:.3}");
     }
 
-    #[test]
-    fn the_fill_meets_the_background_without_a_step() {
-        // Background 0.6 above row 50; a fill of 0.4 in rows 50 to 61 (the
-        // level of sources farther out); the stone below at 0.8.
-        let (w, h) = (80, 90);
-        let filled = Image::from_fn(w, h, 1, |_, y, p| {
+    /// A filled hole `w` px wide under the background: the background
+    /// (`above` of the column) above row 50, the fill at `fill` in rows 50
+    /// to 61, the stone below at 0.8. Returns the image, the background
+    /// and the hole.
+    fn filled_strip(w: usize, above: impl Fn(usize) -> f32, fill: f32) -> (Image, Mask, Mask) {
+        let h = 90;
+        let filled = Image::from_fn(w, h, 1, |x, y, p| {
             p[0] = if y < 50 {
-                0.6
+                above(x)
             } else if y < 62 {
-                0.4
+                fill
             } else {
                 0.8
             }
         });
-        let background = Mask::from_fn(w, h, |_, y| y < 50);
-        let hole = Mask::from_fn(w, h, |_, y| (50..62).contains(&y));
+        (filled, Mask::from_fn(w, h, |_, y| y < 50), Mask::from_fn(w, h, |_, y| (50..62).contains(&y)))
+    }
+
+    #[test]
+    fn the_fill_meets_the_background_without_a_step() {
+        // Background 0.6; a fill of 0.4 (the level of sources farther out).
+        let (filled, background, hole) = filled_strip(80, |_| 0.6, 0.4);
         let matched = blend_into_background(&filled, &background, &hole);
         let step = (matched.at(40, 50, 0) - matched.at(40, 49, 0)).abs();
         assert!(step < 0.05, "a step of {step:.3} across the border (0.2 unmatched)");
@@ -521,19 +527,8 @@ mod tests {
     /// at the border the fill takes the background's level pixel by pixel.
     #[test]
     fn the_fill_takes_the_level_of_the_background_beside_it_all_along_the_border() {
-        let (w, h) = (96, 90);
-        let band = |x: usize| if (x / 12) % 2 == 0 { 0.2 } else { 0.7 };
-        let filled = Image::from_fn(w, h, 1, |x, y, p| {
-            p[0] = if y < 50 {
-                band(x)
-            } else if y < 62 {
-                0.45
-            } else {
-                0.8
-            }
-        });
-        let background = Mask::from_fn(w, h, |_, y| y < 50);
-        let hole = Mask::from_fn(w, h, |_, y| (50..62).contains(&y));
+        let w = 96;
+        let (filled, background, hole) = filled_strip(w, |x| if (x / 12) % 2 == 0 { 0.2 } else { 0.7 }, 0.45);
         let blended = blend_into_background(&filled, &background, &hole);
         let step = (0..w).map(|x| (blended.at(x, 50, 0) - blended.at(x, 49, 0)).abs()).sum::<f32>() / w as f32;
         assert!(step < 0.1, "a mean step of {step:.3} across the border (0.25 unblended, 0.18 with a mean match over 6 px)");
