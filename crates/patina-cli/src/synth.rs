@@ -207,6 +207,7 @@ impl Args {
             lattice: !self.no_lattice,
             rarity: self.rarity,
             families: self.families,
+            search_radius: None,
         }
     }
 

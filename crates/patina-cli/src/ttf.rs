@@ -56,6 +56,12 @@ pub struct Args {
     /// Join blocks with the paper's cut only: no gradient-domain blending of the seams.
     #[arg(long)]
     pub no_blend: bool,
+    /// Heal the quilt's cuts: re-make them by texture optimization of 5x5 patches of whole time columns, shifted
+    /// continuations of the blocks that meet there, one correspondence for every frame (no flicker). Softens jagged cuts
+    /// through smooth frames (rusting steel); blurs fast-moving content a little (sprouts) and shows cut features whole,
+    /// so repeats can rise; not with --tile or --feather [default: off]
+    #[arg(long, conflicts_with_all = ["tile", "feather"])]
+    pub heal: bool,
     /// Make every frame tile seamlessly (its left edge continues its right and its top its bottom): the time columns
     /// are quilted round a torus; the seams are then not blended (the blend does not wrap); not with --lighting stretch.
     #[arg(long)]
@@ -239,6 +245,7 @@ pub fn run(args: Args) -> Result<()> {
         lighting: args.lighting.into(),
         balance: !args.no_balance,
         tile: args.tile,
+        heal: args.heal,
     };
     let total = ttf::output_frames(&frames, size, &params, rate.as_ref())?;
     let chunk = args.chunk.map(|c| chunk_range(c, total));

@@ -25,7 +25,7 @@
 //! With OUT_DIR, the middle frame of every run is written there as
 //! NAME_SETTING.png (for contact sheets). `TTF_FRAMES` caps the frames per
 //! sequence (default 40), `TTF_ONLY` runs one sequence, `TTF_SEED` sets
-//! the seed (default 1).
+//! the seed (default 1), `TTF_HEAL` adds the run with the cuts healed.
 
 use patina::image::io::{save_png, BitDepth};
 use patina::image::sequence::load_sequence;
@@ -68,11 +68,16 @@ fn main() {
     if std::env::var("TTF_ABLATE").is_ok() {
         let d = TtfParams::default();
         settings.push(("no-jitter".into(), TtfParams { jitter: Some(0.0), ..d.clone() }));
+        settings.push(("heal".into(), TtfParams { heal: true, ..d.clone() }));
         settings.push(("no-blend".into(), TtfParams { quilt: QuiltParams { blend: false, ..d.quilt.clone() }, ..d.clone() }));
         settings.push(("keep-light".into(), TtfParams { lighting: SequenceLighting::Keep, ..d.clone() }));
         settings.push(("no-reuse".into(), TtfParams { quilt: QuiltParams { reuse: 0.0, ..d.quilt.clone() }, ..d.clone() }));
         settings.push(("no-balance".into(), TtfParams { balance: false, ..d.clone() }));
         settings.push(("families".into(), TtfParams { quilt: QuiltParams { families: 1.0, ..d.quilt.clone() }, ..d.clone() }));
+    }
+    // TTF_HEAL adds the default settings with the cuts healed.
+    if std::env::var("TTF_HEAL").is_ok() {
+        settings.push(("heal".into(), TtfParams { heal: true, ..TtfParams::default() }));
     }
     // TTF_FAM="0,4" adds default settings with those material-share weights.
     for f in std::env::var("TTF_FAM").unwrap_or_default().split(',').filter(|s| !s.is_empty()) {

@@ -13,7 +13,7 @@
 //! screened Poisson solver ([`poisson::Solver`]).
 
 use super::poisson;
-use crate::image::Image;
+use crate::image::{Image, Mask};
 use rayon::prelude::*;
 
 /// Anchor weight lambda: corrections fade over about 1/sqrt(lambda) = 100
@@ -30,7 +30,7 @@ const LAMBDA: f32 = 1e-4;
 /// it so features growing across a seam do not send a changing glow
 /// around them).
 pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)], outlier: Option<f32>) -> Image {
-    blend_channels(composite, source, sources, outlier, &vec![LAMBDA; composite.channels()])
+    blend_channels(composite, source, sources, None, outlier, &vec![LAMBDA; composite.channels()])
 }
 
 /// [`blend_seams`] for colour images whose blocks may be of different
@@ -47,15 +47,29 @@ pub fn blend_seams(composite: &Image, source: &Image, sources: &[(u32, u32)], ou
 /// the middle frame was 0.17 against 0.23 with unblended cuts and the
 /// input's 0.30), while a lighting or exposure step, which is mostly one
 /// of brightness, is still hidden.
-pub fn blend_seams_keeping_chroma(composite: &Image, source: &Image, sources: &[(u32, u32)], outlier: Option<f32>, reach: f32) -> Image {
+///
+/// Pixels set in `voted` hold the vote of overlapping patches (a healed
+/// seam, [`crate::synth::Synthesis::heal_layout`]), not a copy of their
+/// source pixel: every edge touching one is treated as a seam, so the
+/// blend gives it its source's gradient. Otherwise a tone step the vote
+/// had turned into a short ramp would be kept as a block's own detail
+/// wherever the healed positions continue each other.
+pub fn blend_seams_keeping_chroma(
+    composite: &Image,
+    source: &Image,
+    sources: &[(u32, u32)],
+    voted: Option<&Mask>,
+    outlier: Option<f32>,
+    reach: f32,
+) -> Image {
     let n = composite.channels();
     if n < 3 {
-        return blend_seams(composite, source, sources, outlier);
+        return blend_channels(composite, source, sources, voted, outlier, &vec![LAMBDA; n]);
     }
     let mut lambdas = vec![LAMBDA; n];
     lambdas[1] = 1.0 / (reach * reach).max(1.0);
     lambdas[2] = lambdas[1];
-    let blended = blend_channels(&opponent(composite, false), &opponent(source, false), sources, outlier, &lambdas);
+    let blended = blend_channels(&opponent(composite, false), &opponent(source, false), sources, voted, outlier, &lambdas);
     opponent(&blended, true)
 }
 
@@ -78,7 +92,14 @@ fn opponent(img: &Image, inverse: bool) -> Image {
 }
 
 /// [`blend_seams`] with a screening weight per channel.
-fn blend_channels(composite: &Image, source: &Image, sources: &[(u32, u32)], outlier: Option<f32>, lambdas: &[f32]) -> Image {
+fn blend_channels(
+    composite: &Image,
+    source: &Image,
+    sources: &[(u32, u32)],
+    voted: Option<&Mask>,
+    outlier: Option<f32>,
+    lambdas: &[f32],
+) -> Image {
     let (w, h, n) = (composite.width(), composite.height(), composite.channels());
     assert_eq!(sources.len(), w * h, "one source position per pixel");
     assert_eq!(source.channels(), n, "source and composite channels differ");
@@ -94,7 +115,7 @@ fn blend_channels(composite: &Image, source: &Image, sources: &[(u32, u32)], out
                 }
                 let (p, q) = (sources[y * w + x], sources[qy * w + qx]);
                 let (dx, dy) = if horizontal { (1u32, 0u32) } else { (0, 1) };
-                if q == (p.0 + dx, p.1 + dy) {
+                if q == (p.0 + dx, p.1 + dy) && voted.is_none_or(|v| !v.get(x, y) && !v.get(qx, qy)) {
                     continue;
                 }
                 let at = |s: (u32, u32)| source.at(s.0 as usize, s.1 as usize, c);
@@ -236,6 +257,42 @@ mod tests {
     }
 
     #[test]
+    fn a_voted_ramp_between_blocks_is_spread_like_a_step() {
+        // A healed join: the bright block's positions continue through a
+        // 6 px band (x 45..51) whose values are a vote that ramps down to
+        // the dark block's tone, then the dark block. Taken as the bright
+        // block's own detail, the ramp's drop would stay; marked as voted,
+        // the band gets the exemplar's gradients and the drop is spread.
+        let ex = samples::cobbles(96, 64, 1);
+        let dark = ex.map(|v| 0.75 * v);
+        let (w, h) = (96, 64);
+        let share = |x: usize| ((x as f32 - 44.0) / 7.0).clamp(0.0, 1.0);
+        let composite = Image::from_fn(w, h, 3, |x, y, p| {
+            let (a, b) = (ex.pixel(x, y), dark.pixel(x, y));
+            p.iter_mut().zip(a.iter().zip(b)).for_each(|(o, (a, b))| *o = a + share(x) * (b - a));
+        });
+        let source = Image::from_fn(2 * w, h, 3, |x, y, p| {
+            let v = if x < w { ex.pixel(x, y) } else { dark.pixel(x - w, y) };
+            p.copy_from_slice(v);
+        });
+        let sources: Vec<(u32, u32)> =
+            (0..w * h).map(|i| ((i % w) as u32 + if i % w < 51 { 0 } else { w as u32 }, (i / w) as u32)).collect();
+        let band = Mask::from_fn(w, h, |x, _| (45..51).contains(&x));
+        let plain = blend_seams_keeping_chroma(&composite, &source, &sources, None, None, 6.0);
+        let voted = blend_seams_keeping_chroma(&composite, &source, &sources, Some(&band), None, 6.0);
+        // The tone 12 px apart across the join, against the exemplar's own.
+        let across = |img: &Image| -> f32 {
+            let mean = |img: &Image, x0: usize| {
+                (0..h).flat_map(|y| (x0..x0 + 4).map(move |x| (x, y))).map(|(x, y)| img.at(x, y, 0)).sum::<f32>() / (4 * h) as f32
+            };
+            ((mean(img, 52) - mean(img, 40)) - (mean(&ex, 52) - mean(&ex, 40))).abs()
+        };
+        assert!(across(&composite) > 0.04, "the composite drops by {}", across(&composite));
+        eprintln!("ACROSS {} {} {}", across(&composite), across(&plain), across(&voted));
+        assert!(across(&voted) < 0.4 * across(&plain), "drop across the join: {} plain, {} voted", across(&plain), across(&voted));
+    }
+
+    #[test]
     fn a_block_of_another_material_keeps_its_colour_and_loses_its_brightness_step() {
         // Left half brown cobbles, right half the same cobbles tinted teal and
         // 20% darker, each from its own part of the source. The brightness
@@ -259,7 +316,7 @@ mod tests {
         let blue_red = |p: &[f32]| p[2] - p[0];
         let step = |img: &Image| (column(img, 48, &lum) - column(img, 44, &lum)).abs();
         let plain = blend_seams(&composite, &source, &sources, None);
-        let kept = blend_seams_keeping_chroma(&composite, &source, &sources, None, 6.0);
+        let kept = blend_seams_keeping_chroma(&composite, &source, &sources, None, None, 6.0);
         // Both hide the brightness step.
         assert!(step(&composite) > 0.04, "the composite has a step: {}", step(&composite));
         assert!(step(&kept) < 0.3 * step(&composite), "step {} -> {}", step(&composite), step(&kept));

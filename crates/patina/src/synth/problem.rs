@@ -33,6 +33,7 @@ pub struct Synthesis<'a> {
     pub(crate) relight: super::lighting::Relight<'a>,
     pub(crate) tileable: bool,
     pub(crate) materials: Option<&'a Image>,
+    pub(crate) layout: Option<&'a [(u32, u32)]>,
 }
 
 impl<'a> Synthesis<'a> {
@@ -53,6 +54,7 @@ impl<'a> Synthesis<'a> {
             relight: super::lighting::Relight::Keep,
             tileable: false,
             materials: None,
+            layout: None,
         }
     }
     /// Lighting-aware synthesis ([`super::lighting`]): separate the
@@ -104,6 +106,19 @@ impl<'a> Synthesis<'a> {
     /// the frames' temporal mean colour.
     pub fn materials(mut self, image: &'a Image) -> Self {
         self.materials = Some(image);
+        self
+    }
+    /// Heal the seams of a layout made elsewhere: output pixel i copies
+    /// source pixel `layout[i]` (as [`super::QuiltPlan::source_positions`]
+    /// gives it, row by row). Texture optimization then starts from this
+    /// correspondence instead of quilting its own, and works as
+    /// [`super::Init::QuiltSeams`] does whatever the init asked: one level,
+    /// searching around the layout's cut lines first, so block interiors
+    /// stay verbatim copies. The returned field is the healed
+    /// correspondence; a caller that renders other images through the
+    /// same layout (a time-lapse's frames) renders them through it.
+    pub fn heal_layout(mut self, layout: &'a [(u32, u32)]) -> Self {
+        self.layout = Some(layout);
         self
     }
     /// Output size (default: the target guide's, the filled image's, or the source's).
@@ -213,6 +228,17 @@ impl<'a> Synthesis<'a> {
         if let Some(m) = &self.metric {
             if m.channels() != src.channels() {
                 return Err(Error::invalid(format!("metric reads {} channels, the exemplar has {}", m.channels(), src.channels())));
+            }
+        }
+        if let Some(l) = self.layout {
+            if l.len() != w * h {
+                return Err(Error::invalid(format!("the layout to heal has {} positions for a {w}x{h} output", l.len())));
+            }
+            if self.fill.is_some() || self.start.is_some() || self.tileable {
+                return Err(Error::invalid("a layout to heal cannot be combined with a hole to fill, a start image or a tileable output"));
+            }
+            if l.iter().any(|&(x, y)| x as usize >= src.width() || y as usize >= src.height()) {
+                return Err(Error::invalid(format!("the layout to heal points outside the {}x{} exemplar", src.width(), src.height())));
             }
         }
         let guide_c = self.target_guide.map_or(0, Image::channels);

@@ -277,9 +277,9 @@ impl QuiltPlan {
 
     /// Paste the plan's blocks, reading each block pixel from `sample`:
     /// `sample(placement index, exemplar pixel, output pixel, out)` writes
-    /// the `channels` values the block carries there. This is how a
-    /// time-lapse is rendered from one plan: every frame (or, with time
-    /// jitter, every block at its own time) uses the same blocks and seams.
+    /// the `channels` values the block carries there. A time-lapse renders
+    /// every frame from one plan this way (with time jitter, every block
+    /// at its own time) when its cuts are not healed.
     pub fn render_with(&self, channels: usize, sample: impl Fn(usize, (usize, usize), (usize, usize), &mut [f32])) -> Image {
         let (bw, bh) = self.block;
         let mut out = Image::new(self.width, self.height, channels);
