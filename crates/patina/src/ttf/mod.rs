@@ -21,7 +21,8 @@
 //! - Elongated blocks (section 5.3): any block width and height.
 //! - Time jitter (eqs. 6-7, [`warp`]), each block's warp chosen frame by
 //!   frame to stay in step with its neighbours wherever a change crosses
-//!   its seam, and never to show a frame whose block-scale colour differs
+//!   its seam, to change its offset (a held or skipped frame) seldom where
+//!   it moves fast, and never to show a frame whose block-scale colour differs
 //!   visibly from the output time's (a fast change of the whole surface),
 //!   and rate maps (section 6, [`rate`]).
 //! - Low-frequency normalisation (section 5.3) by the engine's
