@@ -7,9 +7,14 @@ pub struct Scratch(PathBuf);
 
 impl Scratch {
     /// An empty folder named after the test binary's `prefix`, the test's
-    /// `name` and the process.
+    /// `name`, the process and a count of the folders made so far: two
+    /// tests running at once that ask for the same name (the view tests'
+    /// weather folder) get folders of their own, or one would empty and
+    /// remove the other's.
     pub fn new(prefix: &str, name: &str) -> Scratch {
-        let d = std::env::temp_dir().join(format!("patina-{prefix}-{name}-{}", std::process::id()));
+        static MADE: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let k = MADE.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let d = std::env::temp_dir().join(format!("patina-{prefix}-{name}-{}-{k}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();
         Scratch(d)
