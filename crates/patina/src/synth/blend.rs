@@ -288,7 +288,7 @@ mod tests {
             ((mean(img, 52) - mean(img, 40)) - (mean(&ex, 52) - mean(&ex, 40))).abs()
         };
         assert!(across(&composite) > 0.04, "the composite drops by {}", across(&composite));
-        eprintln!("ACROSS {} {} {}", across(&composite), across(&plain), across(&voted));
+        // Measured: 0.120 pasted, 0.103 blended plain, 0.025 with the band marked.
         assert!(across(&voted) < 0.4 * across(&plain), "drop across the join: {} plain, {} voted", across(&plain), across(&voted));
     }
 

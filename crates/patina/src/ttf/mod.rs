@@ -389,7 +389,8 @@ pub fn synthesize_chunk(
         Some((field, band)) => (field.as_slice(), Some(band)),
         None => (layout.as_slice(), None),
     };
-    let labels = plan.labels();
+    // The block each pixel's time comes from, for rendering a healed field.
+    let labels = if healed.is_some() { plan.labels() } else { Vec::new() };
     // Each frame's change to the next: it sets the jitter's clock and
     // which frames are bursts.
     let changes = frame_changes(frames);
@@ -462,7 +463,6 @@ pub fn synthesize_chunk(
     // own warped time's; these differ only slightly, and the brightness
     // steps are what the blend removes.
     let corrections: Vec<(usize, Vec<f32>)> = if params.quilt.blend && params.quilt.boundary_cut && !params.tile {
-        let positions = field;
         // Frames of a burst are keys of their own (below); not under a
         // rate map, whose output frames are not the input's times.
         let bursts = if rate.is_none() { burst_frames(&changes) } else { Vec::new() };
@@ -487,8 +487,7 @@ pub fn synthesize_chunk(
                     mean.data_mut().iter_mut().zip(render(u).data()).for_each(|(m, v)| *m += k * v);
                     src.data_mut().iter_mut().zip(frames[u.min(n - 1)].data()).for_each(|(m, v)| *m += k * v);
                 }
-                let blended =
-                    crate::synth::blend::blend_seams_keeping_chroma(&mean, &src, positions, band, Some(SEAM_OUTLIER), CHROMA_REACH);
+                let blended = crate::synth::blend::blend_seams_keeping_chroma(&mean, &src, field, band, Some(SEAM_OUTLIER), CHROMA_REACH);
                 let sigma = DRIFT_BLOCKS * plan.block.0.max(plan.block.1) as f32;
                 let blended = crate::synth::blend::without_drift(&blended, &mean, sigma);
                 (t, blended.data().iter().zip(mean.data()).map(|(b, a)| b - a).collect())
