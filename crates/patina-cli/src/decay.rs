@@ -52,13 +52,14 @@ fn parse_substrate(s: &str) -> std::result::Result<decay::Substrate, String> {
 /// Writes texture.png (the decay texture), texture_onset.png (the degree at
 /// which each texel appears), shading.png (the object's estimated shading),
 /// degree_NNN.png (the degree map per frame), frames/NNN.png,
-/// sequence.gif and manifest.json. Pixels outside the mask, and wherever
+/// sequence.gif and manifest.json. Pixels outside the mask (with --mask
+/// auto, beyond the 2 px of the found object's soft edge), and wherever
 /// the degree is 0, keep the photo's exact values.
 #[derive(clap::Args)]
 pub struct Args {
     /// Photo of the object (PNG, JPEG, 16-bit PNG or EXR; sRGB).
     pub photo: PathBuf,
-    /// Object mask: a file (white = may decay), `auto` (the object under --point, or else the photo's main object: the largest central region unlike the picture's frame, cut out by GrabCut; written as mask_auto.png) or `none` (the whole photo).
+    /// Object mask: a file (white = may decay), `auto` (the object under --point, or else the photo's main object: the largest central region unlike the picture's frame, cut out by GrabCut and written as mask_auto.png; the decay takes in 2 px more of its soft edge, whose pixels decay as much as their colour says they are object) or `none` (the whole photo).
     #[arg(long, default_value = "none")]
     pub mask: String,
     /// With --mask auto: a pixel X,Y (from the top left) on the object to decay [default: the main object].
@@ -70,7 +71,7 @@ pub struct Args {
     /// Output folder.
     #[arg(short, long)]
     pub out: PathBuf,
-    /// Number of frames. Frame 0 shows the first texels of the initial degree map's patches (a tenth of their visible decay), which the next frames grow into the patches and beyond; a painted degree map, or a single frame, is shown whole.
+    /// Number of frames. Frame 0 is the clean photo and the next frames grow the initial degree map's patches from their first texels, then spread them (eqs. 4-7); a painted degree map, or a single frame, is shown whole from frame 0.
     #[arg(long, default_value_t = 8, value_parser = |s: &str| crate::flags::count(s, 1, 1000))]
     pub frames: usize,
     /// Random seed: texture, degree map and growth; the same inputs and seed give the same bytes.
@@ -157,8 +158,13 @@ pub fn run(args: Args) -> Result<()> {
         Some(ex) => Some(with_bar("texture", |report| from_exemplar(ex, photo.width(), photo.height(), args.seed, false, Some(report)))?),
         None => None,
     };
+    // A found object is widened over the photo's soft silhouette, whose
+    // pixels the decay mattes by colour.
+    let pad = if args.mask == "auto" { decay::AUTO_MASK_PAD } else { 0 };
+    let widened = mask.as_ref().map(|m| m.dilate(pad));
     let inputs_lib = Inputs {
-        mask: mask.as_ref(),
+        mask: widened.as_ref(),
+        mask_pad: pad,
         texture: synthesized.as_ref().map(|s| &s.texture),
         degree: painting.as_ref(),
         rate: rate.as_ref(),
@@ -202,7 +208,8 @@ pub fn run(args: Args) -> Result<()> {
     });
     if args.mask == "auto" {
         p["point"] = json!(args.point.map(|(x, y)| [x, y]));
-        save_png(&prepared.mask.to_image(), dir.join("mask_auto.png"), BitDepth::Eight)?;
+        p["mask_auto_dilated_px"] = json!(decay::AUTO_MASK_PAD);
+        save_png(&mask.as_ref().expect("a found mask").to_image(), dir.join("mask_auto.png"), BitDepth::Eight)?;
         manifest.outputs.push("mask_auto.png".into());
     }
     manifest.params = p;

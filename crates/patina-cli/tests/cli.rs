@@ -584,13 +584,23 @@ fn decay_mask_auto_cuts_out_the_object_and_keeps_the_rest() {
     assert!(wrong * 50 < body.count(), "{wrong} of {} object pixels wrong", body.count());
     let manifest: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(manifest["params"]["mask_source"], "auto");
-    // Outside the found mask the last frame keeps the photo's bytes.
+    assert_eq!(manifest["params"]["mask_auto_dilated_px"], 2);
+    // Beyond the found mask's 2 px soft edge the last frame keeps the
+    // photo's bytes; within it (here all ground: the body's edge is hard)
+    // the colour matte leaves the ground nearly as it was.
     let (last, input) = (load(out.join("frames/002.png")).unwrap(), load(&img).unwrap());
-    for (i, &m) in found.bits().iter().enumerate() {
-        if !m {
-            assert_eq!(last.pixel(i % w, i / w), input.pixel(i % w, i / w));
+    let widened = found.dilate(2);
+    let mut ring = (0, 0);
+    for i in 0..w * h {
+        let (a, b) = (last.pixel(i % w, i / w), input.pixel(i % w, i / w));
+        if !widened.bits()[i] {
+            assert_eq!(a, b);
+        } else if !found.bits()[i] {
+            ring.0 += 1;
+            ring.1 += a.iter().zip(b).any(|(p, q)| (p - q).abs() > 0.05) as usize;
         }
     }
+    assert!(ring.1 * 20 < ring.0, "{} of {} soft-edge pixels changed", ring.1, ring.0);
     fails_cleanly(&dir, &["decay", s(&img), "--point", "10,10", "-o", s(&dir.join("c"))], "--mask auto");
     fails_cleanly(&dir, &["decay", s(&img), "--mask", "auto", "--point", "500,10", "-o", s(&dir.join("c"))], "outside");
     fails_cleanly(&dir, &["decay", s(&img), "--mask", "auto", "--point", "a,b", "-o", s(&dir.join("c"))], "X,Y");

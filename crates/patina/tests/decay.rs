@@ -800,3 +800,40 @@ fn no_line_of_the_objects_paint_is_left_along_the_silhouette() {
     // coverage alone left b* -18 on the outline.
     assert!(n > 50 && edge_b > -12.0, "the outline keeps the blue paint: mean b* {edge_b} over {n} pixels");
 }
+
+/// A white disc whose silhouette is soft (a 4 px ramp to the dark ground,
+/// as a lens leaves it), found by a cut through the middle of the ramp and
+/// widened by the auto mask's pad, fully rusted: the silhouette goes from
+/// the ground to the rust with no pixel lighter than both (the pale rim of
+/// white the reviewers saw round decayed statues). Without the pad and the
+/// colour matte, the ramp's outer half keeps its white.
+#[test]
+fn a_soft_silhouette_leaves_no_pale_rim_round_the_decay() {
+    let (w, h) = (96usize, 96usize);
+    let r = |x: usize, y: usize| (x as f32 + 0.5 - 48.0).hypot(y as f32 + 0.5 - 48.0);
+    let share = |x: usize, y: usize| (0.5 + (30.0 - r(x, y)) / 4.0).clamp(0.0, 1.0);
+    let input = Image::from_fn(w, h, 3, |x, y, p| {
+        let grain = 0.02 * (value_noise(3, x as f32, y as f32) - 0.5);
+        let s = share(x, y);
+        p.fill(s * 0.85 + (1.0 - s) * 0.3 + grain);
+    });
+    let cut = Mask::from_fn(w, h, |x, y| r(x, y) < 30.0);
+    let full = Image::from_fn(w, h, 1, |_, _, p| p[0] = 1.0);
+    let rim = |mask: &Mask, pad: usize| {
+        let inputs = Inputs { mask: Some(mask), mask_pad: pad, degree: Some(&full), ..Default::default() };
+        let prep = decay::prepare(&input, inputs, &DecayParams::new(DecayClass::Rust), 3).unwrap();
+        let out = to_lab(&decay::sequence(&prep, 1, 3, None).unwrap()[0].image);
+        let lightness = |keep: &dyn Fn(f32) -> bool| {
+            let v: Vec<f32> = (0..w * h).filter(|&i| keep(r(i % w, i / w))).map(|i| out.data()[i * 3]).collect();
+            v.iter().sum::<f32>() / v.len() as f32
+        };
+        let (rust, ground) = (lightness(&|d| d < 24.0), lightness(&|d| d > 36.0));
+        let ceiling = rust.max(ground) + 4.0;
+        let ring: Vec<usize> = (0..w * h).filter(|&i| (27.0..34.0).contains(&r(i % w, i / w))).collect();
+        ring.iter().filter(|&&i| out.data()[i * 3] > ceiling).count() as f32 / ring.len() as f32
+    };
+    let binary = rim(&cut, 0);
+    let matted = rim(&cut.dilate(decay::AUTO_MASK_PAD), decay::AUTO_MASK_PAD);
+    assert!(matted < 0.03, "{matted} (binary {binary}) of the silhouette is lighter than the rust and the ground");
+    assert!(binary > 0.15, "the test's rim is not there without the matte ({binary})");
+}

@@ -31,6 +31,12 @@ use crate::synth::Progress;
 use crate::{Error, Result};
 use serde::Serialize;
 
+/// Pixels by which a found object's mask (`--mask auto`) is widened: a
+/// cut follows the middle of the photo's soft silhouette, and the pixels
+/// of the rest of it are decayed by their share of object
+/// ([`composite::matted_coverage`]), not left with the object's colour.
+pub const AUTO_MASK_PAD: usize = 2;
+
 /// Parameters of a decay run, with the paper's defaults.
 #[derive(Clone, Debug, Serialize)]
 pub struct DecayParams {
@@ -119,6 +125,8 @@ pub struct Prepared {
     photo_lab: Image,
     /// The object mask.
     pub mask: Mask,
+    /// Pixels by which the mask was widened past the object ([`Inputs::mask_pad`]).
+    pub mask_pad: usize,
     /// The decay texture as made (sRGB + onset), before colour transfer.
     pub texture: Image,
     texture_lab: Image,
@@ -153,6 +161,11 @@ pub struct Frame {
 pub struct Inputs<'a> {
     /// Object mask (white = may decay); default: the whole photo.
     pub mask: Option<&'a Mask>,
+    /// Pixels by which `mask` was widened past the object's outline to
+    /// take in its soft edge ([`AUTO_MASK_PAD`] for a found object, 0 for
+    /// a user's mask): those pixels decay only as much as their colour
+    /// says they are object ([`composite::matted_coverage`]).
+    pub mask_pad: usize,
     /// A ready decay texture (sRGB + onset, the photo's size), e.g. from
     /// [`exemplar::from_exemplar`]; default: the procedural generator.
     pub texture: Option<&'a Image>,
@@ -262,6 +275,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         photo: photo.clone(),
         photo_lab,
         mask,
+        mask_pad: inputs.mask_pad,
         texture,
         texture_lab,
         onset,
@@ -308,7 +322,7 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
         simulated.push(d);
     }
     let stain = prep.transition.field(prep.photo.width(), prep.photo.height(), seed);
-    let coverage = composite::edge_coverage(&prep.mask);
+    let coverage = composite::matted_coverage(&prep.mask, prep.mask_pad, &prep.photo_lab);
     let ends = (
         visible_share(&simulated[0], &prep.onset, &prep.mask),
         visible_share(simulated.last().expect("the initial map"), &prep.onset, &prep.mask),
