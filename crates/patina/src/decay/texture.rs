@@ -476,8 +476,9 @@ pub const CRACKED_SURFACE: [f32; 3] = [0.72, 0.69, 0.64];
 
 /// Moss: cushions of tiny bumps (cellular noise at 3-4 px: lit yellow-green
 /// tips, dark green gaps) in clumps from warped fBm, darker where a clump
-/// thins out, over dark soil; each cushion is lit from the top left and
+/// thins out; each cushion is lit from the top left and
 /// shades itself on its lower right; clumps grow outward from their centres.
+/// Between the clumps lies a thin olive felt.
 fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let clump = g.layer(0).warped(x, y, 45.0 * s, 5, 20.0 * s);
@@ -493,15 +494,17 @@ fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let bump = b1;
     let hue = g.layer(2).fbm(x, y, 60.0 * s, 3, 0.5);
     let yellow = (0.35 * g.style.variant + 0.25 * hue).clamp(0.0, 1.0);
-    let dark = [0.07, 0.10, 0.03];
+    let dark = [0.12, 0.16, 0.05];
     let mid = mix3([0.24, 0.33, 0.07], [0.34, 0.38, 0.09], yellow);
     let light = mix3([0.48, 0.58, 0.16], [0.60, 0.63, 0.22], yellow);
     let thick = smoothstep(-0.2, 0.4, clump);
     // Tips blur together into a fuzz at 1:1: half their contrast, plus fine fibres.
     let fuzz = g.layer(7).fbm(x, y, 1.5, 2, 0.5);
     let moss = ramp(&[(0.0, dark), (0.5, mid), (1.0, light)], 0.2 + 0.5 * tip * (0.55 + 0.45 * thick) + 0.1 * bump.id + 0.15 * fuzz);
+    // Between the cushions, a thin olive felt of young moss and algae over
+    // the soil: a near-black brown soil read as holes in the moss.
     let soil_m = g.layer(3).fbm(x, y, 5.0, 3, 0.5);
-    let soil = [0.16 + 0.05 * soil_m, 0.14 + 0.04 * soil_m, 0.08 + 0.03 * soil_m];
+    let soil = [0.25 + 0.05 * soil_m, 0.26 + 0.05 * soil_m, 0.12 + 0.03 * soil_m];
     let c = mix3(soil, moss.map(|v| v * relief), cover);
     let ragged = g.layer(4).fbm(x, y, 2.5, 2, 0.5);
     let onset = 0.5 - 0.55 * clump + 0.14 * ragged;
