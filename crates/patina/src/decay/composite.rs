@@ -1,10 +1,10 @@
 //! Compositing a decay texture into the photo (Hao et al. 2023, section
 //! III-C3, eq. 3), in CIE Lab:
 //!
-//! O_L = w T_L s + (1 - w) I_L,  O_ab = w T_ab s + (1 - w) I_ab,
+//! O_L = w ((T_L + 16) s - 16) + (1 - w) I_L,  O_ab = w T_ab s + (1 - w) I_ab,
 //!
-//! with s = S^(1/3) (S is a ratio of linear luminance; Lab goes as its
-//! cube root).
+//! with s = S^(1/3) (S is a ratio of linear luminance; L* + 16 and a*b*
+//! go as its cube root).
 //!
 //! The paper writes O_L = (D T_L + (1 - D) I_L) S; since I already carries
 //! its shading, that form darkens the photo twice and D = 0 would not give
@@ -430,6 +430,15 @@ fn carried_past_the_edge(weight: &Image, coverage: &Image) -> Image {
     out
 }
 
+/// A Lab colour under a light `s` times as bright, as a cube root of a
+/// luminance ratio: XYZ scaled by s^3 moves L* + 16 and a*b* by s (the
+/// paper's product with L* itself lit dark textures too little: rust in a
+/// shadow kept most of its lightness and the object's form was lost).
+#[inline]
+fn lit_lab(lab: &[f32], s: f32) -> [f32; 3] {
+    [(lab[0] + 16.0) * s - 16.0, lab[1] * s, lab[2] * s]
+}
+
 /// Eq. 3: the photo `photo` (sRGB, its bytes kept wherever the decay is
 /// invisible and has no stain) decayed to `degree` with the `layers`.
 /// Pixels with degree 0 (and so everything outside the mask) are copied
@@ -506,7 +515,8 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
                 (Some(body), Some(cov)) if cov.data()[i] < 1.0 => &body.data()[i * 3..i * 3 + 3],
                 _ => p,
             };
-            let lab = [0, 1, 2].map(|c| r * (p[c] + wt * (t[c] * s - q[c])));
+            let shaded = lit_lab(t, s);
+            let lab = lit_lab(&[0, 1, 2].map(|c| p[c] + wt * (shaded[c] - q[c])), r);
             let rgb = lab_pixel_to_srgb(lab);
             for c in 0..3 {
                 px[c] = rgb[c].clamp(0.0, 1.0);

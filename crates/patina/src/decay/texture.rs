@@ -308,7 +308,7 @@ impl Generator {
 /// through an oxide palette (no contour lines: reviewers read them as banding), zones of
 /// yellow-ochre and black oxide, a dark crust of scale plates (cellular,
 /// with dark gaps), bright granular blooms and grain; onset lowest in the
-/// deepest corrosion, ragged at small scale.
+/// deepest corrosion, ragged at the scale of blisters.
 fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let field = g.layer(0).warped(x, y, 80.0 * s, 6, 55.0 * s);
@@ -340,8 +340,12 @@ fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let shade = (1.0 + 0.08 * grain + 0.12 * fine) * (1.0 + crust * (scale_shade - 1.0));
     c = c.map(|v| v * shade);
     let patches = g.layer(5).fbm(x, y, 70.0 * s, 4, 0.5);
-    let ragged = g.layer(7).fbm(x, y, 2.5, 2, 0.5);
-    let onset = 0.42 - 0.55 * patches + 0.12 * fine + 0.08 * ragged - 0.1 * crust;
+    // The front is ragged at the scale of blisters (6 px), granular but
+    // not a pixel dither: pixel-scale onsets (3 px fBm at 0.12) switched
+    // single texels on and off along every front, which reviewers read as
+    // digital dithering.
+    let ragged = g.layer(7).fbm(x, y, 6.0, 3, 0.5);
+    let onset = 0.42 - 0.55 * patches + 0.04 * fine + 0.12 * ragged - 0.1 * crust;
     [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
 }
 
