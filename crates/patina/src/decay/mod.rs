@@ -145,6 +145,8 @@ pub struct Prepared {
     pub transition: Transition,
     /// Towards the photo's light, in the image plane ([`layer::light_direction`]).
     pub light: [f32; 2],
+    /// The decay layer's relief on this object ([`DecayClass::relief`]).
+    pub relief: layer::Relief,
     params: DecayParams,
 }
 
@@ -200,6 +202,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         None => Mask::filled(w, h, true),
     };
     let photo_lab = to_lab(photo);
+    let substrate = texture::Substrate::of_chroma(composite::mean_chroma(&photo_lab, &mask));
     let texture = match inputs.texture {
         Some(t) => {
             same("texture", t.size())?;
@@ -209,20 +212,20 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
             t.clone()
         }
         // A texture that tiles, so texture.png is a seamless material too.
-        None => {
-            texture::generate_tiling(params.class, seed, w, h, texture::Substrate::of_chroma(composite::mean_chroma(&photo_lab, &mask)))?
-        }
+        None => texture::generate_tiling(params.class, seed, w, h, substrate)?,
     };
     let mut onset = texture.select_channels(3..4);
     // The texture's colour as the photo's lens would show it (its onsets stay sharp).
     let focus = composite::focus_blur(photo, &mask, &texture);
-    let focused = gaussian_blur(&texture.select_channels(0..3), focus);
+    let soften = if inputs.texture.is_none() { focus.max(params.class.edge_softness()) } else { focus };
+    let focused = gaussian_blur(&texture.select_channels(0..3), soften);
     // The form (shading) and the fine relief both light the decay; the
     // highlight is removed from their product as the class's gloss says.
     let form = shading::estimate(photo, &mask, &params.shading);
     let relief = shading::relief(photo, &mask, &form, shading::RELIEF);
     let mut lit = form.clone();
-    lit.data_mut().iter_mut().zip(relief.data()).for_each(|(s, r)| *s *= r);
+    let through = params.class.relief_through();
+    lit.data_mut().iter_mut().zip(relief.data()).for_each(|(s, r)| *s *= r.powf(through));
     let shading = shading::with_gloss(&lit, &mask, params.class.gloss());
     let pull = params.class.cavity_pull();
     if pull > 0.0 {
@@ -286,6 +289,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         rate,
         transition: inputs.transition.unwrap_or_else(|| params.class.transition()),
         light,
+        relief: params.class.relief(substrate),
         params: params.clone(),
     })
 }
@@ -336,7 +340,7 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
             shading: &prep.shading,
             stain: stain.as_ref(),
             young: prep.params.class.young_opacity(),
-            relief: prep.params.class.relief(),
+            relief: prep.relief,
             light: prep.light,
             coverage: coverage.as_ref(),
             focus: prep.focus,

@@ -87,13 +87,43 @@ impl DecayClass {
     /// texture: a paint flake leaves a hole of the paint's thickness (a
     /// lit lip on one side, a wall and a thin cast shadow on the other), a
     /// crack is a narrow groove, rust scale stands a little proud, a moss
-    /// cushion is thick and shades its own far side.
-    pub fn relief(self) -> Relief {
+    /// cushion is thick and shades its own far side. On bare stone
+    /// (`substrate`), what flakes is a thin skin or limewash, not a coat of
+    /// paint: a 3 px lip there stood up as soft embossed bumps round the
+    /// flakes, "a Photoshop emboss against the sharp photo" to a reviewer.
+    pub fn relief(self, substrate: Substrate) -> Relief {
         match self {
+            DecayClass::Peeling if substrate == Substrate::Stone => Relief { height: -1.2, softness: 0.5, strength: 0.9, shadow: 0.5 },
             DecayClass::Peeling => Relief { height: -3.0, softness: 0.7, strength: 1.3, shadow: 0.75 },
             DecayClass::Cracked => Relief { height: -1.6, softness: 0.6, strength: 1.0, shadow: 0.55 },
             DecayClass::Rust => Relief { height: 0.8, softness: 1.2, strength: 0.5, shadow: 0.25 },
             DecayClass::Mossy => Relief { height: 2.0, softness: 1.5, strength: 0.6, shadow: 0.35 },
+        }
+    }
+
+    /// The least blur (Gaussian sigma, pixels) a procedural texture's
+    /// colour takes before compositing: peeling's zones (bare metal,
+    /// older coat, rusted patches) follow its chips' cell borders, drawn
+    /// texel by texel, and their colour steps showed as stair-stepped
+    /// edges at 1:1; the others draw their edges anti-aliased.
+    pub fn edge_softness(self) -> f32 {
+        match self {
+            DecayClass::Peeling => 0.5,
+            DecayClass::Rust | DecayClass::Mossy | DecayClass::Cracked => 0.0,
+        }
+    }
+
+    /// The power of the photo's fine relief ([`super::shading::relief`]:
+    /// carved letters, grain, a statue's curls) that lights the decayed
+    /// layer: rust is a film and peeling bares the surface itself, so
+    /// they show all of it; a moss cushion is millimetres thick and hides
+    /// most of it (at 1, carved letters printed sharply through the moss
+    /// and a reviewer read it as a see-through overlay). The form, at
+    /// the shading window's scale, shows through every class.
+    pub fn relief_through(self) -> f32 {
+        match self {
+            DecayClass::Mossy => 0.25,
+            DecayClass::Rust | DecayClass::Peeling | DecayClass::Cracked => 1.0,
         }
     }
 
