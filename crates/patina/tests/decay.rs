@@ -715,6 +715,15 @@ fn the_sequence_starts_clean_and_grows_the_patches_from_their_first_texels() {
     }
 }
 
+/// A flat grey slab (`mask`) carved with `groove`s half as bright as its
+/// face, on the same grey, with a faint grain.
+fn carved_slab(w: usize, h: usize, mask: &Mask, groove: impl Fn(usize, usize) -> bool) -> Image {
+    Image::from_fn(w, h, 3, |x, y, p| {
+        let shade = if mask.get(x, y) && groove(x, y) { 0.5 } else { 1.0 };
+        p.fill(linear_to_srgb(0.35 * shade) + 0.01 * (value_noise(3, x as f32, y as f32) - 0.5));
+    })
+}
+
 /// Moss and rust collect in recesses: on a flat grey slab carved with
 /// thin grooves (half as bright as the face around them), under one low
 /// painted degree everywhere, the decay shows in the grooves well before
@@ -723,10 +732,7 @@ fn the_sequence_starts_clean_and_grows_the_patches_from_their_first_texels() {
 fn moss_and_rust_fill_the_grooves_first() {
     let mask = object();
     let groove = |x: usize, y: usize| (y % 16 < 3 && y > 20 && y < 108) || (x % 24 < 3 && x > 40 && x < 120);
-    let input = Image::from_fn(W, H, 3, |x, y, p| {
-        let shade = if mask.get(x, y) && groove(x, y) { 0.5 } else { 1.0 };
-        p.fill(linear_to_srgb(0.35 * shade) + 0.01 * (value_noise(3, x as f32, y as f32) - 0.5));
-    });
+    let input = carved_slab(W, H, &mask, groove);
     let painted = Image::from_fn(W, H, 1, |_, _, p| p[0] = 0.15);
     let share = |class: DecayClass| {
         let inputs = Inputs { mask: Some(&mask), degree: Some(&painted), ..Default::default() };
@@ -847,10 +853,7 @@ fn moss_hides_fine_carving_that_rust_shows() {
     let (w, h) = (480usize, 384usize);
     let mask = Mask::from_fn(w, h, |x, y| (40..440).contains(&x) && (32..352).contains(&y));
     let groove = |x: usize, y: usize| (y % 24 < 3 && y > 60 && y < 320) || (x % 36 < 3 && x > 80 && x < 400);
-    let input = Image::from_fn(w, h, 3, |x, y, p| {
-        let shade = if mask.get(x, y) && groove(x, y) { 0.5 } else { 1.0 };
-        p.fill(linear_to_srgb(0.35 * shade) + 0.01 * (value_noise(3, x as f32, y as f32) - 0.5));
-    });
+    let input = carved_slab(w, h, &mask, groove);
     let full = Image::from_fn(w, h, 1, |_, _, p| p[0] = 1.0);
     let depth = |class: DecayClass| {
         let inputs = Inputs { mask: Some(&mask), degree: Some(&full), ..Default::default() };
