@@ -88,12 +88,13 @@ impl DecayClass {
     /// lit lip on one side, a wall and a thin cast shadow on the other), a
     /// crack is a narrow groove, rust scale stands a little proud, a moss
     /// cushion is thick and shades its own far side. On bare stone
-    /// (`substrate`), what flakes is a thin skin or limewash, not a coat of
-    /// paint: a 3 px lip there stood up as soft embossed bumps round the
-    /// flakes, "a Photoshop emboss against the sharp photo" to a reviewer.
+    /// (`substrate`), what flakes is a skin or limewash thinner than a coat
+    /// of paint: a soft 3 px lip there stood up as embossed bumps round the
+    /// flakes ("a Photoshop emboss against the sharp photo"), and a 1.2 px
+    /// one read as flat stains.
     pub fn relief(self, substrate: Substrate) -> Relief {
         match self {
-            DecayClass::Peeling if substrate == Substrate::Stone => Relief { height: -1.2, softness: 0.5, strength: 0.9, shadow: 0.5 },
+            DecayClass::Peeling if substrate == Substrate::Stone => Relief { height: -2.0, softness: 0.5, strength: 1.1, shadow: 0.65 },
             DecayClass::Peeling => Relief { height: -3.0, softness: 0.7, strength: 1.3, shadow: 0.75 },
             DecayClass::Cracked => Relief { height: -1.6, softness: 0.6, strength: 1.0, shadow: 0.55 },
             DecayClass::Rust => Relief { height: 0.8, softness: 1.2, strength: 0.5, shadow: 0.25 },

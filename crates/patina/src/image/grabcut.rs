@@ -193,10 +193,11 @@ pub fn cut_out(rgb: &Image, start: &Mask, lightness: f32, focus: Option<(usize, 
     let filled = region::fill_holes(&region::subject(opened.bits(), w, h, focus), w, h);
     let trimmed = without_spurs(&Mask::from_fn(w, h, |x, y| filled[y * w + x]), (w.min(h) / SPUR).max(1), focus);
     let kept = without_strays(trimmed.bits(), &points(&full), w, h);
-    // Dropping strays can leave slivers between them (a glyph's rim):
-    // open again. (Not the subject again: a stray shadow band may have
-    // parted a hydrant's nut from its body.)
-    let clean = Mask::from_fn(w, h, |x, y| kept[y * w + x]).erode(r).dilate(r);
+    // Dropping strays can leave slivers between them (a glyph's rim): open
+    // again by a pixel (a wider square opened each blade's gap in the
+    // object into a polygon of bare stone). Not the subject again: a
+    // stray shadow band may have parted a hydrant's nut from its body.
+    let clean = Mask::from_fn(w, h, |x, y| kept[y * w + x]).erode(1).dilate(1);
     Mask::from_fn(w, h, |x, y| clean.get(x, y) && kept[y * w + x])
 }
 
