@@ -1,10 +1,10 @@
 //! Compositing a decay texture into the photo (Hao et al. 2023, section
 //! III-C3, eq. 3), in CIE Lab:
 //!
-//! O_L = w ((T_L + 16) s - 16) + (1 - w) I_L,  O_ab = w T_ab s + (1 - w) I_ab,
+//! O = w T(S) + (1 - w) I,
 //!
-//! with s = S^(1/3) (S is a ratio of linear luminance; L* + 16 and a*b*
-//! go as its cube root).
+//! in L*, a* and b*, where T(S) is the texture's colour under the
+//! shading S (a ratio of linear luminance), its XYZ scaled by S.
 //!
 //! The paper writes O_L = (D T_L + (1 - D) I_L) S; since I already carries
 //! its shading, that form darkens the photo twice and D = 0 would not give
@@ -13,8 +13,7 @@
 //! object's shading and D = 0 returns the input unchanged. The paper
 //! leaves ab unshaded, which turns shadows into saturated colour (rust on
 //! a dark flank read as candy red): a surface R under shading S has
-//! a = 500 ((X_R S)^(1/3) - (Y_R S)^(1/3)) = s a_R, so ab is shaded by s
-//! like L.
+//! a = 500 ((X_R S)^(1/3) - (Y_R S)^(1/3)), so ab darkens with L.
 //!
 //! The blend weight w is where patina adds to the paper: instead of the
 //! degree D itself, w = smoothstep(onset - 0.04, onset + 0.04, D) with the
@@ -37,7 +36,7 @@
 //! has begun (D > 0), so pixels at D = 0 stay the photo's bytes.
 
 use super::layer::{self, Relief};
-use crate::image::color::{lab_pixel_to_srgb, linear_pixel_to_lab, luminance, srgb_to_linear, LUMA};
+use crate::image::color::{lab_pixel_lit, lab_pixel_to_srgb, linear_pixel_to_lab, luminance, srgb_to_linear, LUMA};
 use crate::image::filter::gaussian_blur;
 use crate::image::noise::smoothstep;
 use crate::image::stain::StainField;
@@ -430,15 +429,6 @@ fn carried_past_the_edge(weight: &Image, coverage: &Image) -> Image {
     out
 }
 
-/// A Lab colour under a light `s` times as bright, as a cube root of a
-/// luminance ratio: XYZ scaled by s^3 moves L* + 16 and a*b* by s (the
-/// paper's product with L* itself lit dark textures too little: rust in a
-/// shadow kept most of its lightness and the object's form was lost).
-#[inline]
-fn lit_lab(lab: &[f32], s: f32) -> [f32; 3] {
-    [(lab[0] + 16.0) * s - 16.0, lab[1] * s, lab[2] * s]
-}
-
 /// Eq. 3: the photo `photo` (sRGB, its bytes kept wherever the decay is
 /// invisible and has no stain) decayed to `degree` with the `layers`.
 /// Pixels with degree 0 (and so everything outside the mask) are copied
@@ -502,11 +492,16 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
                 &photo_lab.data()[i * 3..i * 3 + 3]
             };
             let t = &layers.texture_lab.data()[i * 3..i * 3 + 3];
-            // S is a ratio of linear luminance; L* goes as Y^(1/3). The
-            // layer's own relief lights texture and photo alike.
-            let s = layers.shading.data()[i].cbrt();
+            // S is a ratio of linear luminance: the texture is lit by it in
+            // XYZ ([`lab_pixel_lit`]). The paper's product with L* itself
+            // lit dark textures too little (rust in a shadow kept most of
+            // its lightness and the object's form was lost); scaling L* + 16
+            // and a*b* by S^(1/3), exact only above L* 8, crushed dark rust
+            // in shadow to clipped, saturated black. The layer's own relief
+            // lights texture and photo alike.
+            let s = layers.shading.data()[i];
             // A part-covered silhouette pixel takes the layer's light on its object's share.
-            let r = (1.0 + cover * (lit - 1.0)).cbrt();
+            let r = 1.0 + cover * (lit - 1.0);
             // On the silhouette's part-covered pixels the decay replaces the
             // object's share of the pixel, not a share of the pixel as a
             // whole (which left a line of the object's paint, or a pale rim
@@ -515,8 +510,8 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
                 (Some(body), Some(cov)) if cov.data()[i] < 1.0 => &body.data()[i * 3..i * 3 + 3],
                 _ => p,
             };
-            let shaded = lit_lab(t, s);
-            let lab = lit_lab(&[0, 1, 2].map(|c| p[c] + wt * (shaded[c] - q[c])), r);
+            let shaded = lab_pixel_lit([t[0], t[1], t[2]], s);
+            let lab = lab_pixel_lit([0, 1, 2].map(|c| p[c] + wt * (shaded[c] - q[c])), r);
             let rgb = lab_pixel_to_srgb(lab);
             for c in 0..3 {
                 px[c] = rgb[c].clamp(0.0, 1.0);

@@ -108,6 +108,16 @@ pub fn lab_pixel_to_srgb(lab: [f32; 3]) -> [f32; 3] {
     [r, g, b].map(linear_to_srgb)
 }
 
+/// A CIE L*a*b* colour under `k` times the light (XYZ scaled by `k`):
+/// the same surface in a shadow (k < 1) or lit more brightly. Exact over
+/// the whole range, the linear segment of L* near black included.
+pub fn lab_pixel_lit(lab: [f32; 3], k: f32) -> [f32; 3] {
+    let fy = (lab[0] + 16.0) / 116.0;
+    let (fx, fz) = (fy + lab[1] / 500.0, fy - lab[2] / 200.0);
+    let (fx, fy, fz) = (lab_f(k * lab_f_inv(fx)), lab_f(k * lab_f_inv(fy)), lab_f(k * lab_f_inv(fz)));
+    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
+}
+
 fn map_pixels3(img: &Image, group: &str, f: impl Fn([f32; 3]) -> [f32; 3]) -> Image {
     let n = img.channels();
     let mut data = Vec::with_capacity(img.width() * img.height() * 3);
@@ -149,6 +159,22 @@ pub fn with_colour(img: &Image) -> Image {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A surface under k times the light: its linear RGB is k times as
+    /// much, down to near black (where the cube-root form of L* ends and
+    /// scaling L* + 16 and a*b* by k^(1/3) leaves the gamut).
+    #[test]
+    fn a_lab_colour_lit_k_times_is_its_linear_rgb_times_k() {
+        for rgb in [[0.3f32, 0.12, 0.05], [0.05, 0.02, 0.01], [0.6, 0.6, 0.55]] {
+            let lab = linear_pixel_to_lab(rgb);
+            for k in [1.0f32, 0.5, 0.1, 0.02] {
+                let back = lab_pixel_to_srgb(lab_pixel_lit(lab, k)).map(srgb_to_linear);
+                for c in 0..3 {
+                    assert!((back[c] - k * rgb[c]).abs() < 1e-4 + 1e-3 * k * rgb[c], "{rgb:?} x {k}: {back:?}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn srgb_curve_inverts_and_lab_matches_reference_values() {
