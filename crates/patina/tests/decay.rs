@@ -724,6 +724,19 @@ fn carved_slab(w: usize, h: usize, mask: &Mask, groove: impl Fn(usize, usize) ->
     })
 }
 
+/// Where (x, y) lies on a [`carved_slab`]: 0 in a groove, 1 on the face
+/// well away from one (its stain and blur do not reach), `None` between.
+fn groove_or_face(groove: &impl Fn(usize, usize) -> bool, x: usize, y: usize) -> Option<usize> {
+    let near = (x.saturating_sub(4)..x + 5).any(|u| (y.saturating_sub(4)..y + 5).any(|v| groove(u, v)));
+    if groove(x, y) {
+        Some(0)
+    } else if !near {
+        Some(1)
+    } else {
+        None
+    }
+}
+
 /// Moss and rust collect in recesses: on a flat grey slab carved with
 /// thin grooves (half as bright as the face around them), under one low
 /// painted degree everywhere, the decay shows in the grooves well before
@@ -738,24 +751,16 @@ fn moss_and_rust_fill_the_grooves_first() {
         let inputs = Inputs { mask: Some(&mask), degree: Some(&painted), ..Default::default() };
         let prep = decay::prepare(&input, inputs, &DecayParams::new(class), 3).unwrap();
         let frame = &decay::sequence(&prep, 1, 3, None).unwrap()[0].image;
-        let (mut inside, mut outside) = ([0usize; 2], [0usize; 2]);
+        let (mut changed, mut counts) = ([0usize; 2], [0usize; 2]);
         for y in 14..114usize {
             for x in 32..128usize {
-                // The face well away from a groove (its stain and blur do not reach).
-                let near = (x.saturating_sub(4)..x + 5).any(|u| (y.saturating_sub(4)..y + 5).any(|v| groove(u, v)));
-                let changed = (0..3).any(|c| (frame.at(x, y, c) - input.at(x, y, c)).abs() > 0.04) as usize;
-                let bucket = if groove(x, y) {
-                    &mut inside
-                } else if !near {
-                    &mut outside
-                } else {
-                    continue;
-                };
-                bucket[0] += changed;
-                bucket[1] += 1;
+                if let Some(k) = groove_or_face(&groove, x, y) {
+                    changed[k] += (0..3).any(|c| (frame.at(x, y, c) - input.at(x, y, c)).abs() > 0.04) as usize;
+                    counts[k] += 1;
+                }
             }
         }
-        (inside[0] as f32 / inside[1] as f32, outside[0] as f32 / outside[1] as f32)
+        (changed[0] as f32 / counts[0] as f32, changed[1] as f32 / counts[1] as f32)
     };
     for class in [DecayClass::Mossy, DecayClass::Rust] {
         let (groove, face) = share(class);
@@ -862,16 +867,10 @@ fn moss_hides_fine_carving_that_rust_shows() {
         let (mut sums, mut counts) = ([0f32; 2], [0f32; 2]);
         for y in 60..320usize {
             for x in 80..400usize {
-                let near = (x.saturating_sub(4)..x + 5).any(|u| (y.saturating_sub(4)..y + 5).any(|v| groove(u, v)));
-                let k = if groove(x, y) {
-                    0
-                } else if !near {
-                    1
-                } else {
-                    continue;
-                };
-                sums[k] += lab.at(x, y, 0);
-                counts[k] += 1.0;
+                if let Some(k) = groove_or_face(&groove, x, y) {
+                    sums[k] += lab.at(x, y, 0);
+                    counts[k] += 1.0;
+                }
             }
         }
         sums[1] / counts[1] - sums[0] / counts[0]

@@ -345,12 +345,7 @@ pub fn matted_coverage(mask: &Mask, pad: usize, photo_lab: &Image) -> Option<Ima
     let outline = if pad > 0 { mask.erode(pad) } else { mask.clone() };
     let mut coverage = edge_coverage(&outline)?;
     let (w, h) = mask.size();
-    let local = |source: &Mask| {
-        let weight = source.to_image();
-        let mut held = photo_lab.clone();
-        held.data_mut().chunks_exact_mut(3).zip(weight.data()).for_each(|(px, &m)| px.iter_mut().for_each(|v| *v *= m));
-        (gaussian_blur(&held, MATTE_REACH), gaussian_blur(&weight, MATTE_REACH))
-    };
+    let local = |source: &Mask| weighted_blur(photo_lab, &source.to_image(), MATTE_REACH);
     let core = outline.erode(MATTE_BAND);
     let near = outline.dilate(MATTE_BAND.max(pad + 1));
     let ground = Mask::from_fn(w, h, |x, y| !near.get(x, y));
@@ -372,15 +367,24 @@ pub fn matted_coverage(mask: &Mask, pad: usize, photo_lab: &Image) -> Option<Ima
     Some(coverage)
 }
 
+/// The two halves of a normalised convolution: `values` (any number of
+/// channels) weighted per pixel by `weight` (one channel) and blurred by
+/// a Gaussian of `sigma`, and `weight` blurred alike. Their ratio is the
+/// weighted local mean; each caller divides where the weight is enough.
+fn weighted_blur(values: &Image, weight: &Image, sigma: f32) -> (Image, Image) {
+    let mut held = values.clone();
+    let n = values.channels();
+    held.data_mut().chunks_exact_mut(n).zip(weight.data()).for_each(|(px, &m)| px.iter_mut().for_each(|v| *v *= m));
+    (gaussian_blur(&held, sigma), gaussian_blur(weight, sigma))
+}
+
 /// The object's own colour (Lab) on the pixels of its silhouette that it
 /// only part covers (`coverage` in (0, 1)): the mean of the fully covered
 /// pixels nearby (a normalised convolution at 1.5 px), or the pixel's own
 /// colour where none is near. Elsewhere the photo's colour.
 fn object_colour_at_edge(photo_lab: &Image, coverage: &Image) -> Image {
     let full = coverage.map(|c| (c >= 1.0) as u8 as f32);
-    let mut held = photo_lab.clone();
-    held.data_mut().chunks_exact_mut(3).zip(full.data()).for_each(|(px, &m)| px.iter_mut().for_each(|v| *v *= m));
-    let (num, den) = (gaussian_blur(&held, 1.5), gaussian_blur(&full, 1.5));
+    let (num, den) = weighted_blur(photo_lab, &full, 1.5);
     let mut out = photo_lab.clone();
     out.data_mut().chunks_exact_mut(3).enumerate().for_each(|(i, px)| {
         let (c, d) = (coverage.data()[i], den.data()[i]);
@@ -399,9 +403,7 @@ fn object_colour_at_edge(photo_lab: &Image, coverage: &Image) -> Image {
 /// the silhouette's fade is the coverage's alone).
 fn blurred_within(values: &Image, coverage: &Image, sigma: f32) -> Image {
     let inside = coverage.map(|c| (c > 0.0) as u8 as f32);
-    let mut held = values.clone();
-    held.data_mut().iter_mut().zip(inside.data()).for_each(|(v, m)| *v *= m);
-    let (num, den) = (gaussian_blur(&held, sigma), gaussian_blur(&inside, sigma));
+    let (num, den) = weighted_blur(values, &inside, sigma);
     Image::from_fn(values.width(), values.height(), 1, |x, y, p| {
         let i = y * values.width() + x;
         p[0] = if inside.data()[i] > 0.0 { num.data()[i] / den.data()[i].max(1e-6) } else { 0.0 };
@@ -417,9 +419,7 @@ const CARRY: f32 = 2.0;
 /// instead of stepping down to 0 there.
 fn carried_past_the_edge(weight: &Image, coverage: &Image) -> Image {
     let inside = coverage.map(|c| (c > 0.0) as u8 as f32);
-    let mut held = weight.clone();
-    held.data_mut().iter_mut().zip(inside.data()).for_each(|(v, m)| *v *= m);
-    let (num, den) = (gaussian_blur(&held, CARRY), gaussian_blur(&inside, CARRY));
+    let (num, den) = weighted_blur(weight, &inside, CARRY);
     let mut out = weight.clone();
     out.data_mut().iter_mut().zip(inside.data()).zip(num.data().iter().zip(den.data())).for_each(|((v, &m), (n, d))| {
         if m == 0.0 {
@@ -476,10 +476,10 @@ pub fn composite(photo: &Image, photo_lab: &Image, layers: &Layers, degree: &Ima
             let i = y * w + x;
             let wt = opacity.data()[i];
             // Below 1/500 the glaze changes no 8-bit level: skip its colour work.
-            let b = stain.as_ref().map_or(0.0, |s| s[i]).max(0.0) * layers.coverage.map_or(1.0, |c| c.data()[i]);
+            let cover = layers.coverage.map_or(1.0, |c| c.data()[i]);
+            let b = stain.as_ref().map_or(0.0, |s| s[i]).max(0.0) * cover;
             let b = if b < 0.002 { 0.0 } else { b };
             let lit = lighting.as_ref().map_or(1.0, |f| f[i]);
-            let cover = layers.coverage.map_or(1.0, |c| c.data()[i]);
             if (wt <= 0.0 && b <= 0.0 && lit == 1.0) || channels < 3 {
                 continue;
             }

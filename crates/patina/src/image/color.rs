@@ -92,15 +92,23 @@ pub fn linear_pixel_to_lab([r, g, b]: [f32; 3]) -> [f32; 3] {
     let x = 0.412_456_4 * r + 0.357_576_1 * g + 0.180_437_5 * b;
     let y = 0.212_672_9 * r + 0.715_152_2 * g + 0.072_175 * b;
     let z = 0.019_333_9 * r + 0.119_192 * g + 0.950_304_1 * b;
-    let (fx, fy, fz) = (lab_f(x / WHITE[0]), lab_f(y / WHITE[1]), lab_f(z / WHITE[2]));
+    lab_from_fs([lab_f(x / WHITE[0]), lab_f(y / WHITE[1]), lab_f(z / WHITE[2])])
+}
+
+/// The f(X/Xn), f(Y/Yn), f(Z/Zn) of a CIE L*a*b* colour.
+fn lab_fs(lab: [f32; 3]) -> [f32; 3] {
+    let fy = (lab[0] + 16.0) / 116.0;
+    [fy + lab[1] / 500.0, fy, fy - lab[2] / 200.0]
+}
+
+/// CIE L*a*b* from f(X/Xn), f(Y/Yn), f(Z/Zn).
+fn lab_from_fs([fx, fy, fz]: [f32; 3]) -> [f32; 3] {
     [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
 }
 
 /// CIE L*a*b* to an sRGB-encoded RGB pixel (not clamped).
 pub fn lab_pixel_to_srgb(lab: [f32; 3]) -> [f32; 3] {
-    let fy = (lab[0] + 16.0) / 116.0;
-    let fx = fy + lab[1] / 500.0;
-    let fz = fy - lab[2] / 200.0;
+    let [fx, fy, fz] = lab_fs(lab);
     let (x, y, z) = (WHITE[0] * lab_f_inv(fx), WHITE[1] * lab_f_inv(fy), WHITE[2] * lab_f_inv(fz));
     let r = 3.240_454_2 * x - 1.537_138_5 * y - 0.498_531_4 * z;
     let g = -0.969_266 * x + 1.876_010_8 * y + 0.041_556 * z;
@@ -112,10 +120,7 @@ pub fn lab_pixel_to_srgb(lab: [f32; 3]) -> [f32; 3] {
 /// the same surface in a shadow (k < 1) or lit more brightly. Exact over
 /// the whole range, the linear segment of L* near black included.
 pub fn lab_pixel_lit(lab: [f32; 3], k: f32) -> [f32; 3] {
-    let fy = (lab[0] + 16.0) / 116.0;
-    let (fx, fz) = (fy + lab[1] / 500.0, fy - lab[2] / 200.0);
-    let (fx, fy, fz) = (lab_f(k * lab_f_inv(fx)), lab_f(k * lab_f_inv(fy)), lab_f(k * lab_f_inv(fz)));
-    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
+    lab_from_fs(lab_fs(lab).map(|f| lab_f(k * lab_f_inv(f))))
 }
 
 fn map_pixels3(img: &Image, group: &str, f: impl Fn([f32; 3]) -> [f32; 3]) -> Image {

@@ -197,8 +197,7 @@ pub fn cut_out(rgb: &Image, start: &Mask, lightness: f32, focus: Option<(usize, 
     // again by a pixel (a wider square opened each blade's gap in the
     // object into a polygon of bare stone). Not the subject again: a
     // stray shadow band may have parted a hydrant's nut from its body.
-    let clean = Mask::from_fn(w, h, |x, y| kept[y * w + x]).erode(1).dilate(1);
-    Mask::from_fn(w, h, |x, y| clean.get(x, y) && kept[y * w + x])
+    Mask::from_fn(w, h, |x, y| kept[y * w + x]).erode(1).dilate(1)
 }
 
 /// Parts of a found object narrower than 2 x (shorter side / this) + 1
