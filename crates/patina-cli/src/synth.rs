@@ -150,6 +150,12 @@ pub struct Args {
     /// 0 = plain errors, as in the paper).
     #[arg(long, default_value_t = QuiltParams::default().relative, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 4.0))]
     pub relative: f32,
+    /// Reuse bound: a candidate block holding an exemplar region already covered by this many times its fair share of
+    /// blocks is left out while another costs at most twice the --min-candidates-th cheapest, so one bloom is not pasted
+    /// a dozen times while its twins go unused (quilt, and optimize's quilt start; 0 = off, the default: try 1 when one
+    /// feature of a plain region repeats; it can break structure and copy rare features such as knots more often).
+    #[arg(long, default_value_t = QuiltParams::default().cap, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
+    pub cap: f32,
     /// Lay the blocks out in rows of random height, each row with its own random spacing, so block outlines do not line
     /// up into a grid (quilt; off by default: the paper's regular grid).
     #[arg(long)]
@@ -207,6 +213,7 @@ impl Args {
             lattice: !self.no_lattice,
             rarity: self.rarity,
             families: self.families,
+            cap: self.cap,
             search_radius: None,
         }
     }
@@ -227,6 +234,7 @@ impl Args {
             lattice: !self.no_lattice,
             stagger: self.stagger,
             relative: self.relative,
+            cap: self.cap,
         }
     }
 }

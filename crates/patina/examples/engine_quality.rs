@@ -16,7 +16,8 @@
 //! `--levels N`, `--iters K`, `--patch P`, `--uniformity U` and `--robust`
 //! (robust voting) override the optimizer's defaults, `--no-lattice`
 //! turns off keeping regular structure in phase, `--rarity R` sets the
-//! rare-feature reuse penalty, `--families F` the material-share
+//! rare-feature reuse penalty, `--cap C` the quilt's bound on reuse
+//! (`QuiltParams::cap`), `--families F` the material-share
 //! penalty, `--relative G` the quilt's exponent of the twin error in its
 //! overlap costs,
 //! `--stagger` staggers the blocks instead of the paper's regular grid,
@@ -95,6 +96,9 @@ fn main() {
     }
     if let Some(r) = args.iter().position(|a| a == "--relative").and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<f32>().ok()) {
         quilt.relative = r;
+    }
+    if let Some(c) = args.iter().position(|a| a == "--cap").and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<f32>().ok()) {
+        quilt.cap = c;
     }
     quilt.stagger = args.iter().any(|a| a == "--stagger");
     optimize.lattice = quilt.lattice;

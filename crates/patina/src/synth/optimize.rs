@@ -51,6 +51,9 @@ pub struct OptimizeParams {
     /// A quilt start keeps the exemplar's mix of materials
     /// ([`super::QuiltParams::families`]; 0 = off).
     pub families: f32,
+    /// A quilt start bounds how often one exemplar region is used
+    /// ([`super::QuiltParams::cap`]; 0 = off).
+    pub cap: f32,
     /// PatchMatch's random search looks at most this many pixels from each
     /// pixel's current match (default: the whole exemplar). Healing a
     /// layout ([`Synthesis::heal_layout`]) with a small radius only shifts
@@ -107,6 +110,7 @@ impl Default for OptimizeParams {
             lattice: true,
             rarity: QuiltParams::default().rarity,
             families: QuiltParams::default().families,
+            cap: QuiltParams::default().cap,
             search_radius: None,
         }
     }
@@ -249,7 +253,7 @@ impl Synthesis<'_> {
         seams_only: bool,
         start: &OptimizeParams,
     ) -> Result<(Nnf, Mask, Option<super::Lattice>)> {
-        let (lattice, rarity, families) = (start.lattice, start.rarity, start.families);
+        let (lattice, rarity, families, cap) = (start.lattice, start.rarity, start.families, start.cap);
         let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed).tileable(self.tileable);
         if let Some(m) = allowed {
             problem = problem.source_mask(m);
@@ -269,10 +273,10 @@ impl Synthesis<'_> {
             // structure per block, and a 512 -> 4096 quilt has a quarter as
             // many blocks to search for.
             let block = (style.width().min(style.height()) / 4).clamp(8, 128);
-            QuiltParams { block: Some((block, block)), lattice, rarity, families, ..QuiltParams::default() }
+            QuiltParams { block: Some((block, block)), lattice, rarity, families, cap, ..QuiltParams::default() }
         } else {
             let block = (style.width().min(style.height()) / 3).max(2 * domain.radius() + 3);
-            QuiltParams { block: Some((block, block)), lattice, rarity, families, ..QuiltParams::default() }
+            QuiltParams { block: Some((block, block)), lattice, rarity, families, cap, ..QuiltParams::default() }
         };
         let quilted = problem.quilt(&params)?;
         let plan = quilted.plan;
