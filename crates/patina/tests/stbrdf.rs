@@ -518,10 +518,12 @@ fn arrived_rust_glazes_the_paint_around_and_below_it() {
     };
     let ((down, n_down), (up, n_up)) = (runoff(&below), runoff(&above));
     eprintln!("runoff's darkening: {down:.4} below rust ({n_down} px), {up:.4} above ({n_up} px)");
-    // Texels above rust get some runoff from rust further up (0.0013
-    // against 0.0144 below, measured).
+    // Texels above rust get some runoff from rust further up (0.0051
+    // against 0.0369 below, measured). The runoff must show: at a drip
+    // gain of 1 it darkened the paint below rust by 0.0170 (runoff 60), which no
+    // reviewer saw.
     assert!(
-        n_down > 20 && n_up > 20 && down > 0.005 && down > 2.0 * up.max(0.0),
+        n_down > 20 && n_up > 20 && down > 0.025 && down > 2.0 * up.max(0.0),
         "the runoff runs down: {down:.4} below rust, {up:.4} above"
     );
 }

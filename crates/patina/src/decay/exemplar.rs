@@ -158,5 +158,6 @@ pub fn measure_transition(rgb: &Image, age: &Image) -> Option<Transition> {
         strength: 1.0,
         offset: [0.0, 0.0],
         drip: 0.0,
+        drip_gain: 1.0,
     })
 }

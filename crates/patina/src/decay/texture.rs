@@ -63,10 +63,18 @@ impl DecayClass {
     /// moss leaves a damp, darker olive rim; cracks gather a little grime.
     pub fn transition(self) -> Transition {
         match self {
-            DecayClass::Rust => Transition { width: 9.0, tint: [0.85, 0.45, 0.16], strength: 1.0, offset: [0.0, 0.0], drip: 110.0 },
-            DecayClass::Peeling => Transition { width: 1.2, tint: [0.45, 0.43, 0.4], strength: 0.8, offset: [1.5, 1.5], drip: 0.0 },
-            DecayClass::Cracked => Transition { width: 1.0, tint: [0.62, 0.6, 0.57], strength: 0.6, offset: [0.0, 0.0], drip: 0.0 },
-            DecayClass::Mossy => Transition { width: 6.0, tint: [0.5, 0.56, 0.32], strength: 0.8, offset: [0.0, 0.0], drip: 0.0 },
+            DecayClass::Rust => {
+                Transition { width: 9.0, tint: [0.85, 0.45, 0.16], strength: 1.0, offset: [0.0, 0.0], drip: 110.0, drip_gain: 1.0 }
+            }
+            DecayClass::Peeling => {
+                Transition { width: 1.2, tint: [0.45, 0.43, 0.4], strength: 0.8, offset: [1.5, 1.5], drip: 0.0, drip_gain: 1.0 }
+            }
+            DecayClass::Cracked => {
+                Transition { width: 1.0, tint: [0.62, 0.6, 0.57], strength: 0.6, offset: [0.0, 0.0], drip: 0.0, drip_gain: 1.0 }
+            }
+            DecayClass::Mossy => {
+                Transition { width: 6.0, tint: [0.5, 0.56, 0.32], strength: 0.8, offset: [0.0, 0.0], drip: 0.0, drip_gain: 1.0 }
+            }
         }
     }
 

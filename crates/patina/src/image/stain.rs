@@ -29,11 +29,15 @@ pub struct Transition {
     /// thin streaks (rust's runoff: water carries the oxide down the
     /// object); 0 for none.
     pub drip: f32,
+    /// How dense the runoff is against the rim it leaves from: its weight
+    /// below the weathering is min(1, gain x the carried rim x the
+    /// streaks). 1 keeps it as dense as the rim.
+    pub drip_gain: f32,
 }
 
 impl Transition {
     /// No zone: eq. 3 alone.
-    pub const NONE: Transition = Transition { width: 0.0, tint: [1.0; 3], strength: 0.0, offset: [0.0; 2], drip: 0.0 };
+    pub const NONE: Transition = Transition { width: 0.0, tint: [1.0; 3], strength: 0.0, offset: [0.0; 2], drip: 0.0, drip_gain: 1.0 };
 
     /// Where each pixel reads the zone's rim, and how dense the zone is
     /// there: the part of [`Transition::weights`] that does not change
@@ -106,7 +110,7 @@ impl StainField {
     /// pixels), faded in over the first 0.01 of D (none where D = 0).
     /// With a drip, the rim is at least the runoff from above: the
     /// unwarped rim carried down each column, fading by e every `drip`
-    /// pixels, times the streaks.
+    /// pixels, times the streaks and the drip's gain, at most 1.
     pub fn weights(&self, w: &Image, degree: &Image) -> Vec<f32> {
         let t = &self.transition;
         let near = coarse_blur(w, t.width);
@@ -129,7 +133,7 @@ impl StainField {
             if d > 0.0 && w[i] < 1.0 {
                 let mut rim = (2.0 * near[self.source[i] as usize]).min(1.0);
                 if let Some(r) = &runoff {
-                    rim = rim.max(r[i] * self.streaks[i]);
+                    rim = rim.max((t.drip_gain * r[i] * self.streaks[i]).min(1.0));
                 }
                 *o = t.strength * rim * self.density[i] * (1.0 - w[i]) * smoothstep(0.0, 0.01, d);
             }
