@@ -30,7 +30,11 @@
 //!     directions, bare steel brightening before it rusts or a capture's
 //!     drift, do not count); its onset o is when progress passes 0.5, and
 //!     its own arrival is o for the full change, later for weaker ones
-//!     ([`Timing::arrival`]): cores before rims.
+//!     ([`Timing::arrival`]): cores before rims. The size of its change
+//!     is D's component along the material's mean change (a texel that
+//!     changes against it, a glint brightening, has none).
+//!   - The target's guided synthesis starts from a coarse quilt
+//!     ([`TransferParams::optimize`]).
 //!   - The source's pace ([`Pace`]): the result's texels are chosen and
 //!     timed by rank so that the share covered at each time is the
 //!     source's ([`paced`]), or, by default, grows evenly to the source's
@@ -465,10 +469,18 @@ const GROW_FRONT: f32 = 0.1;
 const GROW_MIN_TOP: f32 = 0.1;
 
 /// When each texel of a material takes on its change (module docs): its
-/// whole change |D| = |p(t_D) - p(t0)| of the Diffuse (an RGB distance)
-/// and its onset, the first time its progress (the projection of p(t) -
-/// p(t0) on D, over |D|^2) passes [`ONSET_PROGRESS`], in units of t_D - t0
-/// (0 at t0, 1 at t_D).
+/// whole change D = p(t_D) - p(t0) of the Diffuse, measured along the
+/// material's mean change u (the unit mean of D over its texels) as
+/// max(0, D . u), and its onset, the first time its progress (the
+/// projection of p(t) - p(t0) on D, over |D|^2) passes
+/// [`ONSET_PROGRESS`], in units of t_D - t0 (0 at t0, 1 at t_D).
+///
+/// Measured as |D|, a change against the material's (the rusting steel
+/// capture's glints and bare patches brightening) counted as rust: it
+/// arrived on the target as slate-blue cores with ochre rings, and the
+/// strongest texels were scattered specks. Along u they do not arrive,
+/// and the rust joins into connected, spreading areas (blind review
+/// 60/40: "reads as corrosion advancing", against "scattered stamps").
 struct Timing {
     size: Vec<f32>,
     onset: Vec<f32>,
@@ -489,6 +501,17 @@ impl Timing {
                 evaluate(&a[c..c + m], t)
             })
         };
+        let change = |a: &[f32]| -> [f32; 3] {
+            let (at0, end) = (value(a, t0), value(a, end_at));
+            std::array::from_fn(|i| end[i] - at0[i])
+        };
+        // The material's mean change, the direction its own change is
+        // measured along (summed in texel order, so any thread count gives
+        // the same direction).
+        let changes: Vec<[f32; 3]> = material.coefficients.data().par_chunks(n).map(change).collect();
+        let sum = changes.iter().fold([0f64; 3], |s, d| std::array::from_fn(|i| s[i] + d[i] as f64));
+        let norm = sum.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let along = (norm > 0.0).then(|| sum.map(|v| (v / norm) as f32));
         let (size, onset) = material
             .coefficients
             .data()
@@ -504,6 +527,13 @@ impl Timing {
                 if whole <= 0.0 {
                     return (0.0, 1.0);
                 }
+                let size = match along {
+                    Some(u) => (end[0] * u[0] + end[1] * u[1] + end[2] * u[2]).max(0.0),
+                    None => whole.sqrt(),
+                };
+                if size <= 0.0 {
+                    return (0.0, 1.0);
+                }
                 let mut before = 0.0;
                 for k in 1..=ONSET_STEPS {
                     let tau = k as f32 / ONSET_STEPS as f32;
@@ -511,11 +541,11 @@ impl Timing {
                     let progress = (d[0] * end[0] + d[1] * end[1] + d[2] * end[2]) / whole;
                     if progress >= ONSET_PROGRESS {
                         let within = (ONSET_PROGRESS - before) / (progress - before).max(1e-6);
-                        return (whole.sqrt(), (tau - (1.0 - within) / ONSET_STEPS as f32).clamp(0.0, 1.0));
+                        return (size, (tau - (1.0 - within) / ONSET_STEPS as f32).clamp(0.0, 1.0));
                     }
                     before = progress;
                 }
-                (whole.sqrt(), 1.0)
+                (size, 1.0)
             })
             .unzip();
         Timing { size, onset, end_at, start_at: t0 }
@@ -1291,6 +1321,31 @@ mod tests {
         assert!(light(rim) <= 1.5 * light(pace.colour), "{rim:?} against {:?}", pace.colour);
         let brown = [0.45, 0.25, 0.12];
         assert_eq!(end_state(&timing, &pace, 2, brown, 0.0), (brown, 1.0));
+    }
+
+    /// A texel whose change goes against the material's (a glint that
+    /// brightens while the steel around it rusts darker) has no change of
+    /// the material's and never arrives; measured as |D| it was as strong
+    /// as the rust and arrived as a slate-blue core.
+    #[test]
+    fn a_change_against_the_materials_does_not_count_as_its_arrival() {
+        let diffuse = vec![crate::stbrdf::material::Param { name: "Diffuse".into(), channels: 3 }];
+        // Degree 1: p(t) = a0 + a1 t per channel. Eight texels rust from
+        // grey to brown, two brighten to near white.
+        let (rust, glint) = ([-0.3, -0.42, -0.5], [0.3, 0.3, 0.32]);
+        let coefficients = Image::from_fn(10, 1, 6, |x, _, p| {
+            let d = if x < 8 { rust } else { glint };
+            for c in 0..3 {
+                p[2 * c] = 0.6;
+                p[2 * c + 1] = d[c];
+            }
+        });
+        let material = Material::new(1, diffuse, coefficients).unwrap();
+        let timing = Timing::of(&material, 0..3, 0.0);
+        let top = timing.top();
+        assert!(timing.size[..8].iter().all(|&s| s > 0.5), "the rust counts: {:?}", timing.size);
+        assert!(timing.size[8..].iter().all(|&s| s == 0.0), "the glints do not: {:?}", timing.size);
+        assert!((0..8).all(|i| timing.arrival(i, top) <= 1.0) && (8..10).all(|i| timing.arrival(i, top) > 1.0));
     }
 
     /// Where the material arrives opaque it is its own colour; where it is
