@@ -516,21 +516,19 @@ impl Timing {
             .coefficients
             .data()
             .par_chunks(n)
-            .map(|a| {
+            .zip(changes.par_iter())
+            .map(|(a, &end)| {
                 let at0 = value(a, t0);
                 let delta = |t: f32| -> [f32; 3] {
                     let v = value(a, t);
                     std::array::from_fn(|i| v[i] - at0[i])
                 };
-                let end = delta(end_at);
                 let whole = end.iter().map(|v| v * v).sum::<f32>();
-                if whole <= 0.0 {
-                    return (0.0, 1.0);
-                }
                 let size = match along {
                     Some(u) => (end[0] * u[0] + end[1] * u[1] + end[2] * u[2]).max(0.0),
                     None => whole.sqrt(),
                 };
+                // No change along the material's (or none at all).
                 if size <= 0.0 {
                     return (0.0, 1.0);
                 }

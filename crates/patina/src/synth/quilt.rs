@@ -166,7 +166,8 @@ pub struct QuiltParams {
     /// Bound on how often one exemplar region is used (not in the paper):
     /// a candidate holding a cell (a quarter of a block wide) already
     /// covered by `cap` x its fair share of blocks is left out, as long as
-    /// a candidate within [`CAP_COST_SLACK`] x the best cost is not. The
+    /// a candidate within [`CAP_COST_SLACK`] x the cost of the
+    /// `min_candidates`-th cheapest is not. The
     /// fair share of a cell is the number of blocks that would cover it if
     /// every placement were equally likely. The reuse penalty only scales
     /// costs, and a cheap continuation of plain material (an orange bloom
@@ -1140,9 +1141,9 @@ impl Pass<'_> {
         let order = |a: &(f32, usize), b: &(f32, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
         minima.sort_by(order);
         // The reuse bound: leave out placements on full cells while one
-        // that is not costs at most CAP_COST_SLACK x the best.
+        // that is not costs at most CAP_COST_SLACK x the k-th cheapest.
         let k = self.params.min_candidates.max(1);
-        if let Some(&(reference, _)) = minima.get(k.min(minima.len()).saturating_sub(1)) {
+        if let Some(&(reference, _)) = minima.get(k.min(minima.len()).saturating_sub(1)).filter(|_| self.params.cap > 0.0) {
             let open: Vec<(f32, usize)> = minima.iter().copied().filter(|&(_, i)| !full(i % vw, i / vw)).collect();
             if open.first().is_some_and(|&(c, _)| c <= reference.max(0.0) * CAP_COST_SLACK) && open.len() < minima.len() {
                 minima = open;
