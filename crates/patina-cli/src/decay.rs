@@ -4,8 +4,7 @@ use crate::output::{check_outputs, manifest_path, parse_size, save, save_png, wr
 use crate::progress::with_bar;
 use patina::decay::exemplar::{from_exemplar, FromExemplar};
 use patina::decay::{self, degree::Diffusion, texture, DecayClass, DecayParams, Inputs, ShadingParams};
-use patina::image::color::{linear_to_srgb, luminance};
-use patina::image::grabcut;
+use patina::image::color::linear_to_srgb;
 use patina::image::io::{self, BitDepth};
 use patina::image::{Image, Mask};
 use patina::{Error, Result};
@@ -26,11 +25,6 @@ fn parse_xy<T: std::str::FromStr>(s: &str, what: &str) -> std::result::Result<(T
 /// Parse `X,Y` (integers, may be negative).
 fn parse_offset(s: &str) -> std::result::Result<(i64, i64), String> {
     parse_xy(s, " (e.g. 1024,0)")
-}
-
-/// Parse `X,Y` (non-negative integers).
-fn parse_point(s: &str) -> std::result::Result<(usize, usize), String> {
-    parse_xy(s, " with X and Y pixel positions >= 0 (e.g. 320,240)")
 }
 
 fn parse_class(s: &str) -> std::result::Result<DecayClass, String> {
@@ -63,7 +57,7 @@ pub struct Args {
     #[arg(long, default_value = "none")]
     pub mask: String,
     /// With --mask auto: a pixel X,Y (from the top left) on the object to decay [default: the main object].
-    #[arg(long, value_parser = parse_point)]
+    #[arg(long, value_parser = crate::object::parse_point)]
     pub point: Option<(usize, usize)>,
     /// Decay class: rust, peeling, cracked or mossy.
     #[arg(long, value_parser = parse_class, default_value = "rust")]
@@ -112,13 +106,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let mut manifest = Manifest::new("decay", args.seed);
-    let mask_file = match args.mask.as_str() {
-        "auto" | "none" => None,
-        path => Some(PathBuf::from(path)),
-    };
-    if args.point.is_some() && args.mask != "auto" {
-        return Err(Error::InvalidInput("--point picks the object for --mask auto; add --mask auto".into()));
-    }
+    let mask_file = crate::object::mask_file(&args.mask, args.point)?;
     let inputs: Vec<&Path> =
         [Some(args.photo.as_path()), mask_file.as_deref(), args.degree.as_deref(), args.exemplar.as_deref(), args.rate_map.as_deref()]
             .into_iter()
@@ -137,18 +125,7 @@ pub fn run(args: Args) -> Result<()> {
     let dir = out.path();
     let photo = crate::input::load(&args.photo)?;
     let load_optional = |p: &Option<PathBuf>| p.as_ref().map(crate::input::load).transpose();
-    let mask = match args.mask.as_str() {
-        "none" => None,
-        "auto" => {
-            if let Some((x, y)) = args.point {
-                if x >= photo.width() || y >= photo.height() {
-                    return Err(Error::InvalidInput(format!("--point {x},{y} is outside the {}x{} photo", photo.width(), photo.height())));
-                }
-            }
-            Some(grabcut::salient_object(&photo, args.point))
-        }
-        _ => load_optional(&mask_file)?.map(|m| Mask::from_image(&luminance(&m))),
-    };
+    let mask = crate::object::resolve(&args.mask, args.point, &photo)?;
     let painting = load_optional(&args.degree)?;
     let rate = load_optional(&args.rate_map)?;
     let exemplar = load_optional(&args.exemplar)?;

@@ -12,6 +12,7 @@ pub mod embed;
 mod flags;
 mod input;
 mod metrics;
+mod object;
 mod output;
 mod progress;
 mod stbrdf;

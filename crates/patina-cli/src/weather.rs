@@ -117,6 +117,15 @@ pub struct Args {
     /// A user intact texture replacing the automatic one.
     #[arg(long)]
     pub intact: Option<PathBuf>,
+    /// The surface to weather: a mask file (white = weathers), `auto` (the object under --point, or else the photo's main object: the largest central region unlike the picture's frame, cut out by GrabCut and written as mask_auto.png) or `none` (the whole image). Pixels outside keep the input in every frame and play no part in the age map (no match, region or source comes from them).
+    #[arg(long, default_value = "none")]
+    pub mask: String,
+    /// With --mask auto: a pixel X,Y (from the top left) on the object to weather [default: the main object].
+    #[arg(long, value_parser = crate::object::parse_point)]
+    pub point: Option<(usize, usize)>,
+    /// A pixel X,Y (from the top left) on weathering. The age map calls the commoner material intact, which is wrong when the weathering covers most of the surface (more rust than paint, stone under lichen); if it judged this pixel intact, it is turned over [default: the age map as found].
+    #[arg(long, value_parser = crate::object::parse_point)]
+    pub weathered_at: Option<(usize, usize)>,
     /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
     #[arg(long)]
     pub overwrite: bool,
@@ -167,12 +176,15 @@ pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let m = &args.method;
     let mut manifest = Manifest::new("weather", m.seed);
+    let mask_file = crate::object::mask_file(&args.mask, args.point)?;
     let mut inputs: Vec<&Path> = vec![&args.input];
     inputs.extend(args.age_map.as_deref());
     inputs.extend(args.intact.as_deref());
     inputs.extend(m.labels.as_deref());
+    inputs.extend(mask_file.as_deref());
     let out = OutDir::begin(&args.out, &inputs, args.overwrite)?;
     let input = crate::input::load(&args.input)?;
+    let mask = crate::object::resolve(&args.mask, args.point, &input)?;
     let user_age = args.age_map.as_ref().map(crate::input::load).transpose()?;
     let user_intact = args.intact.as_ref().map(crate::input::load).transpose()?;
     let labels = load_labels(m)?;
@@ -184,7 +196,13 @@ pub fn run(args: Args) -> Result<()> {
     params.sequence.future_span = args.span;
     params.sequence.steps = args.steps;
     params.sequence.growth = args.growth.into();
-    let overrides = Overrides { age: user_age.as_ref(), intact: user_intact.as_ref(), labels: labels.as_ref() };
+    let overrides = Overrides {
+        age: user_age.as_ref(),
+        intact: user_intact.as_ref(),
+        labels: labels.as_ref(),
+        mask: mask.as_ref(),
+        weathered_at: args.weathered_at,
+    };
     let total = (2 + args.past + args.future) as u64;
     let result = with_bar("weather", |report| {
         weather::weather(&input, &params, overrides, m.seed, &|stage| {
@@ -203,6 +221,11 @@ pub fn run(args: Args) -> Result<()> {
     save_png(&result.age, dir.join("age_map.png"), BitDepth::Eight)?;
     save_png(&result.intact, dir.join("intact.png"), BitDepth::Eight)?;
     manifest.outputs.extend(["age_map.png".into(), "intact.png".into()]);
+    if args.mask == "auto" {
+        let found = mask.as_ref().expect("a found mask");
+        save_png(&found.to_image(), dir.join("mask_auto.png"), BitDepth::Eight)?;
+        manifest.outputs.push("mask_auto.png".into());
+    }
     if let Some(l) = &result.layers {
         save_png(&l.to_image(), dir.join("layers.png"), BitDepth::Eight)?;
         manifest.outputs.push("layers.png".into());
@@ -222,6 +245,14 @@ pub fn run(args: Args) -> Result<()> {
         p["intact"]["weathered_fraction"] = json!(fraction);
     }
     p["layers_used"] = json!(result.layers.as_ref().map(|l| l.count));
+    p["age"]["flipped"] = json!(result.flipped);
+    p["mask_source"] = json!(match args.mask.as_str() {
+        "auto" | "none" => args.mask.clone(),
+        _ => "file".into(),
+    });
+    if let Some(found) = &mask {
+        p["mask_share"] = json!(found.count() as f32 / (found.width() * found.height()) as f32);
+    }
     manifest.params = p;
     manifest.metrics.insert("weathered_area".into(), json!(weathered_areas(&result.frames, &result.intact)?));
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
@@ -267,7 +298,7 @@ pub fn run_age_map(args: SingleArgs) -> Result<()> {
     let mut clock = Stopwatch::start();
     let (mut manifest, manifest_file, input, layers) = single_setup(&args, "age-map")?;
     let params = args.method.params();
-    let (map, grid) = weather::resolve_age(&input, &params.age, None, layers.as_ref())?;
+    let (map, grid) = weather::resolve_age(&input, &params.age, None, layers.as_ref(), None)?;
     manifest.timings_ms.insert("age_map".into(), clock.lap());
     crate::embed::commit_point();
     save_png(&map, &args.out, BitDepth::Eight)?;
@@ -288,8 +319,8 @@ pub fn run_intact(args: SingleArgs) -> Result<()> {
     let (mut manifest, manifest_file, input, layers) = single_setup(&args, "intact")?;
     let params = args.method.params();
     let user_age = args.age_map.as_ref().map(crate::input::load).transpose()?;
-    let (age, _) = weather::resolve_age(&input, &params.age, user_age.as_ref(), layers.as_ref())?;
-    let result = with_bar("intact", |_| intact(&input, &age, layers.as_ref(), &params.intact, args.method.seed))?;
+    let (age, _) = weather::resolve_age(&input, &params.age, user_age.as_ref(), layers.as_ref(), None)?;
+    let result = with_bar("intact", |_| intact(&input, &age, layers.as_ref(), &params.intact, None, args.method.seed))?;
     manifest.timings_ms.insert("intact".into(), clock.lap());
     crate::embed::commit_point();
     save_png(&result.image, &args.out, BitDepth::Eight)?;
@@ -327,7 +358,7 @@ pub fn run_transfer(args: TransferArgs) -> Result<()> {
         let total = (args.frames + 2) as u64;
         let a = age_map(&source, &params.age)?;
         report(1, total);
-        let i = intact(&source, &a.map, None, &params.intact, m.seed)?;
+        let i = intact(&source, &a.map, None, &params.intact, None, m.seed)?;
         report(2, total);
         transfer::transfer(
             &transfer::Source { image: &source, age: &a.map, intact: &i.image },

@@ -231,6 +231,53 @@ fn weather_writes_frames_gif_and_a_manifest_with_times() {
     fails_cleanly(&dir, &["age-map", s(&input), "-o", s(&input)], "overwrite");
 }
 
+/// `--mask`: a stucco disc with rust on bricks. The bricks come out of
+/// every frame exactly as they went in, the manifest says where the mask
+/// came from, and a mask of another size or of nothing, a `--point`
+/// without `--mask auto`, and a weathered pixel off the mask are refused.
+#[test]
+fn weather_with_a_mask_keeps_the_background_and_refuses_bad_masks() {
+    let dir = scratch("weather_mask");
+    let size = 128;
+    let (rusty, _) = patina::samples::weather(&patina::samples::stucco(size, size, 4), patina::samples::Weathering::Rust, 0.1, 11);
+    let bricks = patina::samples::bricks(size, size, 2);
+    let disc = patina::image::Mask::from_fn(size, size, |x, y| (x as f32 - 64.0).hypot(y as f32 - 64.0) < 42.0);
+    let img = patina::image::Image::from_fn(size, size, 3, |x, y, p| {
+        p.copy_from_slice(if disc.get(x, y) { rusty.pixel(x, y) } else { bricks.pixel(x, y) })
+    });
+    let (input, mask) = (dir.join("in.png"), dir.join("mask.png"));
+    save_png(&img, &input, BitDepth::Eight).unwrap();
+    save_png(&disc.to_image(), &mask, BitDepth::Eight).unwrap();
+    let out = dir.join("out");
+    let r = patina(&["weather", s(&input), "--out", s(&out), "--mask", s(&mask), "--past", "1", "--future", "1", "--seed", "2"], None);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["params"]["mask_source"], "file");
+    let original = load(&input).unwrap();
+    for f in ["age_map.png", "intact.png", "frames/000.png", "frames/001.png", "frames/003.png"] {
+        let o = load(out.join(f)).unwrap();
+        let kept = (0..size * size).filter(|&i| !disc.bits()[i]).all(|i| {
+            let (x, y) = (i % size, i / size);
+            if f == "age_map.png" {
+                o.at(x, y, 0) == 0.0
+            } else {
+                o.pixel(x, y) == original.pixel(x, y)
+            }
+        });
+        assert!(kept, "{f} changed the background");
+    }
+    let bad = dir.join("bad");
+    let small = dir.join("small.png");
+    save_png(&patina::image::Image::new(64, 64, 1), &small, BitDepth::Eight).unwrap();
+    fails_cleanly(&dir, &["weather", s(&input), "--out", s(&bad), "--mask", s(&small)], "mask is 64x64");
+    let black = dir.join("black.png");
+    save_png(&patina::image::Image::new(size, size, 1), &black, BitDepth::Eight).unwrap();
+    fails_cleanly(&dir, &["weather", s(&input), "--out", s(&bad), "--mask", s(&black)], "selects no pixel");
+    fails_cleanly(&dir, &["weather", s(&input), "--out", s(&bad), "--mask", s(&mask), "--point", "5,5"], "--mask auto");
+    fails_cleanly(&dir, &["weather", s(&input), "--out", s(&bad), "--mask", s(&mask), "--weathered-at", "2,2"], "outside the mask");
+    fails_cleanly(&dir, &["weather", s(&input), "--out", s(&bad), "--mask", s(&dir.join("none.png"))], "none.png");
+}
+
 #[test]
 fn age_map_and_intact_write_single_images() {
     let dir = scratch("agemap");

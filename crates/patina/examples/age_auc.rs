@@ -36,7 +36,7 @@ fn main() {
         let a = age_map(img, &ap).unwrap();
         let t_age = t.elapsed().as_secs_f32();
         let t = Instant::now();
-        let result = intact(img, &a.map, None, &IntactParams::default(), 5).unwrap();
+        let result = intact(img, &a.map, None, &IntactParams::default(), None, 5).unwrap();
         (a, t_age, result, t.elapsed().as_secs_f32())
     };
     for base in ["stucco", "gravel", "tiles", "planks"] {

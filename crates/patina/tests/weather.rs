@@ -75,7 +75,7 @@ fn discs_darkened_each_in_its_own_shade_keep_their_grid_and_come_back_light() {
         }
     });
     let age = age_map(&img, &AgeParams::default()).unwrap();
-    let result = intact(&img, &age.map, None, &IntactParams::default(), 5).unwrap();
+    let result = intact(&img, &age.map, None, &IntactParams::default(), None, 5).unwrap();
     assert!(result.lattice.is_some(), "no grid kept");
     let pf = p as f32;
     let radius = |x: usize, y: usize| {
@@ -123,7 +123,7 @@ fn the_age_map_and_the_intact_texture_find_and_remove_injected_weathering() {
         assert!(lo >= 0.0 && hi <= 1.0, "normalised to [0, 1]: {lo}..{hi}");
         let auc = roc_auc(age.map.data(), mask.bits());
         assert!(auc >= min_auc, "{base} with {kind:?}: ROC AUC {auc:.3} < {min_auc}");
-        let result = intact(&img, &age.map, None, &IntactParams::default(), 5).unwrap();
+        let result = intact(&img, &age.map, None, &IntactParams::default(), None, 5).unwrap();
         let residue = weathering_residue(&result.image, &original, &img, &mask, 5, 1).unwrap();
         assert!(residue <= max_residue, "{base} with {kind:?}: intact keeps {:.0}% of the weathering", 100.0 * residue);
         assert_eq!(result.lattice.is_some(), base == "tiles", "{base} {kind:?}: grid found = {:?}", result.lattice);
@@ -239,7 +239,7 @@ fn transfer_carries_rust_onto_a_clean_texture() {
     let (source, _) = samples::weather(&clean("tiles"), Weathering::Rust, 0.1, 11);
     let target = samples::gravel(SIZE, SIZE, 2);
     let age = age_map(&source, &AgeParams::default()).unwrap();
-    let s_intact = intact(&source, &age.map, None, &IntactParams::default(), 1).unwrap();
+    let s_intact = intact(&source, &age.map, None, &IntactParams::default(), None, 1).unwrap();
     let frames = transfer::transfer(
         &transfer::Source { image: &source, age: &age.map, intact: &s_intact.image },
         &target,
@@ -278,7 +278,9 @@ fn user_maps_replace_the_automatic_ones_and_bad_sizes_are_refused() {
     let age = mask.to_image();
     let mut p = WeatherParams::default();
     (p.sequence.past, p.sequence.future) = (1, 0);
-    let r = weather::weather(&img, &p, Overrides { age: Some(&age), intact: Some(&original), labels: None }, 1, &|_| {}).unwrap();
+    let r =
+        weather::weather(&img, &p, Overrides { age: Some(&age), intact: Some(&original), labels: None, ..Default::default() }, 1, &|_| {})
+            .unwrap();
     assert_eq!(r.age.data(), age.data(), "the user age map is used as given");
     assert_eq!(r.frames[0].image.data(), original.data(), "t = 0 is the user's intact texture");
     let small = Image::new(50, 50, 1);
@@ -409,7 +411,7 @@ fn the_weathered_cut_adapts_to_the_damage_and_respects_its_cap() {
     let clean = samples::stucco(192, 192, 3);
     let judged = |img: &Image| {
         let a = age_map(img, &AgeParams::default()).unwrap();
-        intact(img, &a.map, None, &IntactParams::default(), 1).unwrap().weathered_fraction
+        intact(img, &a.map, None, &IntactParams::default(), None, 1).unwrap().weathered_fraction
     };
     let cracks = judged(&samples::weather(&clean, Weathering::CrackNetwork, 0.0, 11).0);
     let (img, _) = samples::weather(&clean, Weathering::Peel, 0.32, 11);
@@ -418,7 +420,7 @@ fn the_weathered_cut_adapts_to_the_damage_and_respects_its_cap() {
     assert!((0.3..=0.6).contains(&peel) && peel > cracks + 0.1, "37% peel judged {:.0}% weathered", 100.0 * peel);
     let a = age_map(&img, &AgeParams::default()).unwrap();
     let capped = IntactParams { weathered_max: 0.15, ..IntactParams::default() };
-    let r = intact(&img, &a.map, None, &capped, 1).unwrap();
+    let r = intact(&img, &a.map, None, &capped, None, 1).unwrap();
     assert!(r.weathered_fraction <= 0.16, "the cap 15% gave {:.0}%", 100.0 * r.weathered_fraction);
 }
 
@@ -835,4 +837,94 @@ fn fine_damage_grows_by_its_whole_share() {
     let ratio = changed as f32 / asked;
     eprintln!("fine damage ({:.3} of the surface): {changed} px drawn by t = 2, {ratio:.2} of the {asked:.0} asked", initial);
     assert!(ratio >= 0.8, "fine damage grew by {ratio:.2} of its share");
+}
+
+/// An object of stucco with 10% rust (a disc a third of the picture) on a
+/// background of bricks, and the object's mask, and the rust's.
+fn rusty_disc_on_bricks(size: usize) -> (Image, patina::image::Mask, patina::image::Mask) {
+    let (rusty, rust) = samples::weather(&samples::stucco(size, size, 4), Weathering::Rust, 0.1, 11);
+    let bricks = samples::bricks(size, size, 2);
+    let c = size as f32 / 2.0;
+    let object = patina::image::Mask::from_fn(size, size, |x, y| (x as f32 - c).hypot(y as f32 - c) < 0.33 * size as f32);
+    let img =
+        Image::from_fn(size, size, 3, |x, y, p| p.copy_from_slice(if object.get(x, y) { rusty.pixel(x, y) } else { bricks.pixel(x, y) }));
+    let rust = patina::image::Mask::from_fn(size, size, |x, y| object.get(x, y) && rust.get(x, y));
+    (img, object, rust)
+}
+
+/// The AUC of `age` for `truth` over the pixels of `object` only.
+fn auc_within(age: &Image, truth: &patina::image::Mask, object: &patina::image::Mask) -> f32 {
+    let (a, t): (Vec<f32>, Vec<bool>) =
+        object.bits().iter().enumerate().filter(|(_, &b)| b).map(|(i, _)| (age.data()[i], truth.bits()[i])).unzip();
+    roc_auc(&a, &t)
+}
+
+/// With a mask, the object is judged on its own: stucco with rust spots on
+/// a disc a third of the picture, on bricks. Without the mask the disc's
+/// clean stucco, absent from two thirds of the picture's regions, is
+/// judged weathered (mean age 0.61, the rust's AUC within the disc 0.37);
+/// with it, the bricks are neither matches nor regions (0.10 and 0.998).
+/// Every frame keeps every brick pixel exactly, the age map is 0 there,
+/// the intact disc is clean stucco, and the rust grows inside the disc.
+#[test]
+fn a_mask_judges_and_weathers_the_object_alone_and_keeps_the_background() {
+    let size = 192;
+    let (img, object, rust) = rusty_disc_on_bricks(size);
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (2, 2);
+    let masked = weather::weather(&img, &p, Overrides { mask: Some(&object), ..Default::default() }, 3, &|_| {}).unwrap();
+    let whole = weather::weather(&img, &p, Overrides::default(), 3, &|_| {}).unwrap();
+    let outside = |i: usize| !object.bits()[i];
+    for f in &masked.frames {
+        assert!(
+            (0..size * size).filter(|&i| outside(i)).all(|i| f.image.pixel(i % size, i / size) == img.pixel(i % size, i / size)),
+            "t = {} changed the background",
+            f.t
+        );
+    }
+    assert!((0..size * size).filter(|&i| outside(i)).all(|i| masked.age.data()[i] == 0.0), "the background has an age");
+    let (a_masked, a_whole) = (auc_within(&masked.age, &rust, &object), auc_within(&whole.age, &rust, &object));
+    assert!(a_masked >= 0.95 && a_whole < 0.7, "rust AUC within the disc: {a_masked:.3} masked, {a_whole:.3} without");
+    let clean_age = |age: &Image| {
+        let v: Vec<f32> = (0..size * size).filter(|&i| object.bits()[i] && !rust.bits()[i]).map(|i| age.data()[i]).collect();
+        v.iter().sum::<f32>() / v.len() as f32
+    };
+    assert!(clean_age(&masked.age) < 0.2, "clean stucco's mean age {:.2} with the mask", clean_age(&masked.age));
+    let d_intact = colour_distance(&masked.intact, &img).unwrap();
+    let removed = (0..size * size).filter(|&i| rust.bits()[i] && d_intact[i] > 0.1).count() as f32 / rust.count() as f32;
+    assert!(removed > 0.9, "the intact disc keeps {:.0}% of the rust", 100.0 * (1.0 - removed));
+    let last = colour_distance(&masked.frames.last().unwrap().image, &img).unwrap();
+    let grown = (0..size * size).filter(|&i| object.bits()[i] && last[i] > 0.1).count() as f32 / object.count() as f32;
+    assert!(grown > 0.08, "only {grown:.3} of the disc changed by t = 2");
+}
+
+/// Rust over 60-80% of stucco: prevalence calls the rust the material
+/// and the stucco islands its weathering (AUC under 0.01). A pixel
+/// pointed at on the rust turns the map over (AUC above 0.99), and the
+/// weathered share may then pass the usual cap; pointed at the rust of a
+/// map that found it, nothing turns.
+#[test]
+fn a_weathered_pixel_turns_over_a_map_that_called_the_majority_intact() {
+    let size = 160;
+    let deepest = |m: &patina::image::Mask| {
+        let d = m.distance_inside();
+        let i = (0..size * size).max_by(|&a, &b| d[a].total_cmp(&d[b]).then(b.cmp(&a))).unwrap();
+        (i % size, i / size)
+    };
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (1, 1);
+    for area in [0.6, 0.8] {
+        let (img, truth) = samples::weather(&samples::stucco(size, size, 4), Weathering::Rust, area, 11);
+        let plain = weather::weather(&img, &p, Overrides::default(), 3, &|_| {}).unwrap();
+        let hinted =
+            weather::weather(&img, &p, Overrides { weathered_at: Some(deepest(&truth)), ..Default::default() }, 3, &|_| {}).unwrap();
+        let (a_plain, a_hinted) = (roc_auc(plain.age.data(), truth.bits()), roc_auc(hinted.age.data(), truth.bits()));
+        assert!(hinted.flipped && a_plain < 0.1 && a_hinted > 0.95, "{area}: AUC {a_plain:.3} plain, {a_hinted:.3} pointed at");
+        let judged = hinted.weathered.unwrap().1;
+        assert!(judged > 0.9 * area, "{area}: {judged:.2} judged weathered once turned over");
+    }
+    let (img, truth) = samples::weather(&samples::stucco(size, size, 4), Weathering::Rust, 0.1, 11);
+    let hinted = weather::weather(&img, &p, Overrides { weathered_at: Some(deepest(&truth)), ..Default::default() }, 3, &|_| {}).unwrap();
+    assert!(!hinted.flipped, "a map that found the rust was turned over");
+    assert!(roc_auc(hinted.age.data(), truth.bits()) > 0.9);
 }

@@ -167,23 +167,51 @@ impl AgeParams {
 
 /// The age map of `img` (sRGB colour or grey, values in [0, 1]).
 pub fn age_map(img: &Image, params: &AgeParams) -> Result<AgeMap> {
+    age_map_within(img, params, None)
+}
+
+/// Share of the image a mask must cover for the image to be searched for
+/// a period (tiles, boards): an object on a background is not.
+pub const PERIODIC_COVER: f32 = 0.9;
+
+/// The age map of the surface `within` marks in `img` (the whole image
+/// when `None`): every statistic (the cells compared, the regions counted,
+/// the detail term's samples, reference and scale, the colour regions) is
+/// taken over those pixels only, so a background neither serves as a match
+/// nor counts as a region the surface's material is missing from. Pixels
+/// outside are 0. `img`'s pixels just outside `within` should continue its
+/// material (see [`super::object`]): patches at the outline reach there.
+/// A surface covering less than [`PERIODIC_COVER`] of the image is not
+/// searched for a period.
+pub fn age_map_within(img: &Image, params: &AgeParams, within: Option<&Mask>) -> Result<AgeMap> {
     let (w, h) = img.size();
     let (n, (pw, ph)) = params.resolve(w, h)?;
+    if within.is_some_and(|m| m.size() != (w, h)) {
+        return Err(Error::invalid("the age map's mask must be the image's size"));
+    }
+    let inside = cells_inside(within, n, (pw, ph));
+    let inside_count = inside.iter().filter(|&&b| b).count();
+    if inside_count < 9 {
+        return Err(Error::invalid(format!(
+            "the mask covers too little of the image for an age map: it needs at least 9 cells of {pw}x{ph} px, it covers {inside_count}"
+        )));
+    }
     let features = Features::new(img, params.colour)?;
-    let k = params.k_for(n * n);
-    let periodicity = if params.regular { tiles::periods(img) } else { None };
+    let k = params.k_for(inside_count);
+    let covers = within.is_none_or(|m| m.count() as f32 >= PERIODIC_COVER * (w * h) as f32);
+    let periodicity = if params.regular && covers { tiles::periods(img) } else { None };
     let (i_max, g_max) = distance_scales(&features, n, (pw, ph));
-    let minima = cell_minima(&features, n, (pw, ph), (i_max, g_max));
+    let minima = cell_minima(&features, n, (pw, ph), (i_max, g_max), &inside);
     let cell_ages = match params.prevalence {
-        Prevalence::Coverage => coverage_ages(&minima, n, pw.min(ph)),
-        Prevalence::KNearest => k_nearest_ages(&minima, k),
+        Prevalence::Coverage => coverage_ages(&minima, n, pw.min(ph), &inside),
+        Prevalence::KNearest => k_nearest_ages(&minima, k, &inside),
     };
     let mut map = match &periodicity {
         // A tiled texture: what departs from its own median tile is
         // weathered; the grout and inserts that repeat are not.
         Some(p @ Periodicity::Grid(_)) => periodic_deviation(&features, p, params.detail_patch),
         _ => {
-            let mut m = interpolate(&cell_ages, n, (pw, ph), w, h);
+            let mut m = interpolate(&nearest_inside(&cell_ages, n, &inside), n, (pw, ph), w, h);
             m = gaussian_blur(&m, (params.smoothing * pw.max(ph) as f32).max(0.5));
             // Coverage is an absolute share (0: a match in every region),
             // so a clean texture stays low; the paper's K-mean is a
@@ -199,7 +227,7 @@ pub fn age_map(img: &Image, params: &AgeParams) -> Result<AgeMap> {
     // term serves stochastic textures and stripes, where the grooves that
     // repeat at the period are not rare detail.
     if params.detail > 0.0 && !matches!(periodicity, Some(Periodicity::Grid(_))) {
-        let mut detail = detail_term(&features, &map, params.detail_patch)?;
+        let mut detail = detail_term(&features, &map, params.detail_patch, within)?;
         if let Some(Periodicity::Stripes(v)) = periodicity {
             let regular = regularity(&features, v, params.detail_patch);
             detail.data_mut().iter_mut().zip(regular.data()).for_each(|(d, r)| *d *= 1.0 - r);
@@ -213,7 +241,10 @@ pub fn age_map(img: &Image, params: &AgeParams) -> Result<AgeMap> {
         }
     }
     if params.regions {
-        map = super::material::complete_regions(&features.appearance, &map, super::IntactParams::default().weathered_max);
+        map = super::material::complete_regions(&features.appearance, &map, super::IntactParams::default().weathered_max, within);
+    }
+    if let Some(m) = within {
+        map.data_mut().iter_mut().zip(m.bits()).for_each(|(a, &b)| *a = if b { *a } else { 0.0 });
     }
     Ok(AgeMap { map, grid: n, patch: (pw, ph), k, cell_ages, periodicity })
 }
@@ -286,9 +317,41 @@ fn distance_scales(f: &Features, n: usize, patch: (usize, usize)) -> (f32, f32) 
     (max_of(&f.appearance), max_of(&f.direction))
 }
 
+/// Which grid cells, row-major, lie on the surface: at least half their
+/// pixels within `within` (every cell when `None`).
+fn cells_inside(within: Option<&Mask>, n: usize, (pw, ph): (usize, usize)) -> Vec<bool> {
+    (0..n * n)
+        .map(|c| {
+            let (i, j) = (c % n, c / n);
+            within.is_none_or(|m| {
+                let set = (j * ph..(j + 1) * ph).map(|y| (i * pw..(i + 1) * pw).filter(|&x| m.get(x, y)).count()).sum::<usize>();
+                2 * set >= pw * ph
+            })
+        })
+        .collect()
+}
+
+/// The cell values with every cell off the surface taking the value of
+/// the nearest cell on it (the first in row-major order among equals), so
+/// that interpolation near the outline does not blend towards a
+/// background that has no age.
+fn nearest_inside(values: &[f32], n: usize, inside: &[bool]) -> Vec<f32> {
+    let on: Vec<usize> = (0..n * n).filter(|&c| inside[c]).collect();
+    (0..n * n)
+        .map(|c| {
+            if inside[c] {
+                return values[c];
+            }
+            let d = |o: usize| (o % n).abs_diff(c % n).pow(2) + (o / n).abs_diff(c / n).pow(2);
+            on.iter().min_by_key(|&&o| d(o)).map_or(0.0, |&o| values[o])
+        })
+        .collect()
+}
+
 /// Per source cell, the minimum of D over the placements centred in each
-/// grid cell, row-major (its own cell infinite).
-fn cell_minima(f: &Features, n: usize, (pw, ph): (usize, usize), (i_max, g_max): (f32, f32)) -> Vec<Vec<f32>> {
+/// grid cell, row-major (its own cell and the cells off the surface
+/// infinite; a cell off the surface is not compared at all).
+fn cell_minima(f: &Features, n: usize, (pw, ph): (usize, usize), (i_max, g_max): (f32, f32), inside: &[bool]) -> Vec<Vec<f32>> {
     let stacked = f.stacked();
     let spectral = SpectralSource::new(&stacked, &f.weights(i_max, g_max));
     let (vw, vh) = (stacked.width() - pw + 1, stacked.height() - ph + 1);
@@ -299,6 +362,9 @@ fn cell_minima(f: &Features, n: usize, (pw, ph): (usize, usize), (i_max, g_max):
         .into_par_iter()
         .map(|c| {
             let (i, j) = (c % n, c / n);
+            if !inside[c] {
+                return vec![f32::INFINITY; n * n];
+            }
             let mut q = spectral.query(pw, ph);
             spectral.add_box_term(&mut q, &cell_template(&stacked, i, j, (pw, ph)), 1.0);
             let d = spectral.finish(&mut q);
@@ -313,16 +379,22 @@ fn cell_minima(f: &Features, n: usize, (pw, ph): (usize, usize), (i_max, g_max):
                 }
             }
             best[c] = f32::INFINITY;
+            best.iter_mut().zip(inside).for_each(|(b, &on)| *b = if on { *b } else { f32::INFINITY });
             best
         })
         .collect()
 }
 
-/// The paper's age of every cell: the mean of its K smallest minima.
-fn k_nearest_ages(minima: &[Vec<f32>], k: usize) -> Vec<f32> {
+/// The paper's age of every cell: the mean of its K smallest minima (0
+/// off the surface).
+fn k_nearest_ages(minima: &[Vec<f32>], k: usize, inside: &[bool]) -> Vec<f32> {
     minima
         .iter()
-        .map(|m| {
+        .zip(inside)
+        .map(|(m, &on)| {
+            if !on {
+                return 0.0;
+            }
             let mut m = m.clone();
             m.sort_by(f32::total_cmp);
             m[..k].iter().sum::<f32>() / k as f32
@@ -348,27 +420,37 @@ pub const REGION_SIDE: usize = 48;
 /// (bare plaster, whose distances are all small) is not mistaken for
 /// intact material when the intact material is busier, and a weathering
 /// over 40% of the surface still covers fewer regions than the material
-/// around it.
-fn coverage_ages(minima: &[Vec<f32>], n: usize, cell: usize) -> Vec<f32> {
+/// around it. Only cells on the surface (`inside`) are aged and only
+/// regions holding one are counted; the others are 0.
+fn coverage_ages(minima: &[Vec<f32>], n: usize, cell: usize, inside: &[bool]) -> Vec<f32> {
     let b = REGION_SIDE.div_ceil(cell.max(1)).clamp(1, n / 3);
     let r = n.div_ceil(b);
+    let region_of = |c: usize| (c / n / b) * r + (c % n) / b;
+    let mut counted = vec![false; r * r];
+    (0..n * n).filter(|&c| inside[c]).for_each(|c| counted[region_of(c)] = true);
     let regional: Vec<Vec<f32>> = minima
         .iter()
         .enumerate()
+        .filter(|&(c, _)| inside[c])
         .map(|(c, m)| {
             let mut out = vec![f32::INFINITY; r * r];
             for (k, &v) in m.iter().enumerate() {
-                let slot = &mut out[(k / n / b) * r + (k % n) / b];
+                let slot = &mut out[region_of(k)];
                 *slot = slot.min(v);
             }
-            // Leave out the region of the cell itself.
-            out.swap_remove((c / n / b) * r + (c % n) / b);
+            // Leave out the regions off the surface, and the region of
+            // the cell itself.
+            let own = (0..region_of(c)).filter(|&g| counted[g]).count();
+            let mut out: Vec<f32> = out.into_iter().enumerate().filter(|&(g, _)| counted[g]).map(|(_, v)| v).collect();
+            out.swap_remove(own);
             out
         })
         .collect();
     let own: Vec<f32> = minima
         .iter()
-        .map(|m| {
+        .enumerate()
+        .filter(|&(c, _)| inside[c])
+        .map(|(_, m)| {
             let mut m = m.clone();
             m.sort_by(f32::total_cmp);
             m[..OWN_MATCHES].iter().sum::<f32>() / OWN_MATCHES as f32
@@ -381,6 +463,7 @@ fn coverage_ages(minima: &[Vec<f32>], n: usize, cell: usize) -> Vec<f32> {
     // clean brick wall texture that repeats once came out 60% weathered).
     let mut typical: Vec<f32> = regional
         .iter()
+        .filter(|m| !m.is_empty())
         .map(|m| {
             let mut m = m.clone();
             let mid = m.len() / 2;
@@ -388,16 +471,19 @@ fn coverage_ages(minima: &[Vec<f32>], n: usize, cell: usize) -> Vec<f32> {
         })
         .collect();
     let mid = typical.len() / 2;
-    let floor = *typical.select_nth_unstable_by(mid, f32::total_cmp).1;
-    regional
-        .iter()
-        .zip(&own)
-        .map(|(m, &o)| {
-            let theta = (2.0 * o + floor).max(1e-12);
-            let covered: f32 = m.iter().map(|&v| 1.0 / (1.0 + (v / theta).powi(4))).sum();
+    let floor = if typical.is_empty() { 0.0 } else { *typical.select_nth_unstable_by(mid, f32::total_cmp).1 };
+    // A surface within a single region has no other region to be missing
+    // from: nothing on it counts as rare at this scale.
+    let mut ages = regional.iter().zip(&own).map(|(m, &o)| {
+        let theta = (2.0 * o + floor).max(1e-12);
+        let covered: f32 = m.iter().map(|&v| 1.0 / (1.0 + (v / theta).powi(4))).sum();
+        if m.is_empty() {
+            0.0
+        } else {
             1.0 - covered / m.len() as f32
-        })
-        .collect()
+        }
+    });
+    (0..n * n).map(|c| if inside[c] { ages.next().expect("one age per inside cell") } else { 0.0 }).collect()
 }
 
 /// Bilinear interpolation of the grid (values at cell centres) to pixels.
@@ -643,12 +729,12 @@ impl ColourBins {
     }
 }
 
-/// Per pixel, how common its colour is: the count of the image's pixels in
-/// its bin of a 16^3 histogram of the appearance features (smoothed over
-/// the neighbouring bins).
-fn colour_density(appearance: &Image) -> Vec<f32> {
+/// Per pixel, how common its colour is: the count of the pixels of
+/// `within` (all when `None`) in its bin of a 16^3 histogram of the
+/// appearance features (smoothed over the neighbouring bins).
+fn colour_density(appearance: &Image, within: Option<&Mask>) -> Vec<f32> {
     let bins = ColourBins::new(appearance);
-    let hist = bins.counts(appearance, None);
+    let hist = bins.counts(appearance, within);
     appearance.data().chunks_exact(appearance.channels()).map(|p| hist[bins.bin(p)]).collect()
 }
 
@@ -701,12 +787,15 @@ pub const DETAIL_FLOOR: f32 = 0.8;
 ///
 /// Pixels closer to the border than the patch radius take the value of
 /// the nearest interior pixel (their patches are cut off and would look rare).
-fn detail_term(f: &Features, coarse: &Image, patch: usize) -> Result<Image> {
+/// With `within`, the samples, the reference, the scales and the colour
+/// counts come from its pixels only.
+fn detail_term(f: &Features, coarse: &Image, patch: usize, within: Option<&Mask>) -> Result<Image> {
     let appearance = &f.appearance;
     let (w, h) = appearance.size();
     let (hw, hh) = (w / 2, h / 2);
     let small = (hw >= 4 * patch && hh >= 4 * patch).then(|| resize(appearance, hw, hh, Filter::Linear)).transpose()?;
     let up = |img: Image| resize(&img, w, h, Filter::Linear);
+    let small_within = within.map(|m| Mask::from_fn(hw, hh, |x, y| m.get((2 * x).min(w - 1), (2 * y).min(h - 1))));
     let mut out = Image::new(w, h, 1);
     let take = |out: &mut Image, mut d: Image, reference: Option<&Mask>, floor: f32| {
         let values: Vec<f32> = match reference {
@@ -717,20 +806,22 @@ fn detail_term(f: &Features, coarse: &Image, patch: usize) -> Result<Image> {
         out.data_mut().iter_mut().zip(d.data()).for_each(|(o, v)| *o = o.max(*v));
     };
     // Density.
-    take(&mut out, density_distance(appearance, patch), None, DETAIL_FLOOR);
+    take(&mut out, density_distance(appearance, patch, within), within, DETAIL_FLOOR);
     if let Some(s) = &small {
-        take(&mut out, up(density_distance(s, patch))?, None, DETAIL_FLOOR);
+        take(&mut out, up(density_distance(s, patch, small_within.as_ref()))?, within, DETAIL_FLOOR);
     }
     // Distance to reference material.
-    let mut ages: Vec<f32> = coarse.data().to_vec();
+    let on = |i: usize| within.is_none_or(|m| m.bits()[i]);
+    let mut ages: Vec<f32> = coarse.data().iter().enumerate().filter(|&(i, _)| on(i)).map(|(_, v)| *v).collect();
     let mid = ages.len() / 2;
     let median = *ages.select_nth_unstable_by(mid, f32::total_cmp).1;
-    let colour = colour_density(appearance);
-    let mut sorted = colour.clone();
+    let colour = colour_density(appearance, within);
+    let mut sorted: Vec<f32> = colour.iter().enumerate().filter(|&(i, _)| on(i)).map(|(_, v)| *v).collect();
     let at = ((sorted.len() - 1) as f32 * RARE_COLOURS) as usize;
     let rare = *sorted.select_nth_unstable_by(at, f32::total_cmp).1;
     let dense = out.clone();
-    let pool = Mask::from_fn(w, h, |x, y| coarse.at(x, y, 0) <= median && colour[y * w + x] > rare && dense.at(x, y, 0) <= 0.0);
+    let pool =
+        Mask::from_fn(w, h, |x, y| on(y * w + x) && coarse.at(x, y, 0) <= median && colour[y * w + x] > rare && dense.at(x, y, 0) <= 0.0);
     // The floor comes from pixels whose whole patch is reference material
     // (a pixel next to a crack is in the pool but its patch holds the crack).
     let core = pool.erode(patch);
@@ -749,9 +840,9 @@ fn detail_term(f: &Features, coarse: &Image, patch: usize) -> Result<Image> {
 
 /// Per pixel, the distance from its patch (luminance texels and mean
 /// colour) to the [`DENSITY_RANK`]-th nearest of [`DENSITY_SAMPLES`]
-/// patches drawn on a fixed pseudo-random pattern, spread over the pixels
-/// the patch covers.
-fn density_distance(appearance: &Image, patch: usize) -> Image {
+/// patches drawn on a fixed pseudo-random pattern (centred within
+/// `within`, when given), spread over the pixels the patch covers.
+fn density_distance(appearance: &Image, patch: usize, within: Option<&Mask>) -> Image {
     let (w, h) = appearance.size();
     let r = patch / 2;
     let c = appearance.channels();
@@ -780,8 +871,15 @@ fn density_distance(appearance: &Image, patch: usize) -> Image {
     let count = DENSITY_SAMPLES.min(iw * ih);
     let mut samples = vec![0f32; count * dims];
     for s in samples.chunks_exact_mut(dims) {
-        let (x, y) = (r + g.gen_range(0..iw), r + g.gen_range(0..ih));
-        describe(x, y, s);
+        // Redrawn (a bounded number of times) until it lies within.
+        let mut at = (r + g.gen_range(0..iw), r + g.gen_range(0..ih));
+        for _ in 0..64 {
+            if within.is_none_or(|m| m.get(at.0, at.1)) {
+                break;
+            }
+            at = (r + g.gen_range(0..iw), r + g.gen_range(0..ih));
+        }
+        describe(at.0, at.1, s);
     }
     let rank = DENSITY_RANK.min(count).max(1);
     let clamp = |v: usize, n: usize| v.clamp(r, n - 1 - r);

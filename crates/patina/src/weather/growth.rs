@@ -142,9 +142,11 @@ pub fn arrival_times(
     }
     // Nucleation: new sites on clean pixels, drawn in proportion to their
     // age (slightly aged spots start first), each starting a little late.
-    let clean = (w * h) - weathered.count();
+    let clean = within.map_or(w * h, Mask::count).saturating_sub(weathered.count());
     let sites = if nucleate { ((clean as f32 / 4096.0) * NUCLEATION_DENSITY).round() as usize } else { 0 };
-    let weights: Vec<f32> = (0..w * h).map(|i| if weathered.bits()[i] { 0.0 } else { age.data()[i] * age.data()[i] }).collect();
+    let weights: Vec<f32> = (0..w * h)
+        .map(|i| if weathered.bits()[i] || within.is_some_and(|m| !m.bits()[i]) { 0.0 } else { age.data()[i] * age.data()[i] })
+        .collect();
     let total: f32 = weights.iter().sum();
     if total > 0.0 {
         for _ in 0..sites {
@@ -201,12 +203,33 @@ pub fn arrival_times(
     time
 }
 
+/// The smoothing [`arrival_times`] gives times that are all finite, for
+/// times finite only within `within`: a blur normalised over the finite
+/// times (only they are averaged), `weathered` pixels staying at 0.
+fn smooth_within(time: &mut [f32], within: &Mask, weathered: &Mask) {
+    let (w, h) = within.size();
+    let finite = |x: usize, y: usize| within.get(x, y) && time[y * w + x].is_finite();
+    let on = Image::from_fn(w, h, 1, |x, y, p| p[0] = if finite(x, y) { 1.0 } else { 0.0 });
+    let masked = Image::from_fn(w, h, 1, |x, y, p| p[0] = if finite(x, y) { time[y * w + x] } else { 0.0 });
+    let (sum, weight) = (gaussian_blur(&masked, FRONT_SMOOTHING), gaussian_blur(&on, FRONT_SMOOTHING));
+    for (i, t) in time.iter_mut().enumerate() {
+        if within.bits()[i] && !weathered.bits()[i] && t.is_finite() {
+            *t = sum.data()[i] / weight.data()[i].max(1e-6);
+        }
+    }
+}
+
 /// Frames for t > 1 grown by front propagation (see the module docs).
+/// With `within`, the damage grows only there, its shares are of that
+/// surface, and its material comes from there; every other pixel keeps
+/// the input.
+#[allow(clippy::too_many_arguments)]
 pub fn future(
     input: &Image,
     intact: &Image,
     age: &Image,
     cut: f32,
+    within: Option<&Mask>,
     params: &SequenceParams,
     seed: u64,
     progress: &dyn Fn(usize),
@@ -221,12 +244,20 @@ pub fn future(
     if params.future_span.is_nan() || params.future_span <= 0.0 {
         return Err(Error::invalid("future frames need a positive span"));
     }
-    let weathered = Mask::from_fn(w, h, |x, y| age.at(x, y, 0) >= cut);
-    let clean = Mask::from_fn(w, h, |x, y| !weathered.get(x, y));
+    if within.is_some_and(|m| m.size() != input.size()) {
+        return Err(Error::invalid("the future frames' mask must be the input's size"));
+    }
+    let on = |x: usize, y: usize| within.is_none_or(|m| m.get(x, y));
+    let weathered = Mask::from_fn(w, h, |x, y| on(x, y) && age.at(x, y, 0) >= cut);
+    let clean = Mask::from_fn(w, h, |x, y| on(x, y) && !weathered.get(x, y));
     let barrier = structure_barrier(intact);
-    let arrival = arrival_times(age, &weathered, None, &orientation(input, STRUCTURE_SIGMA, Some(&clean)), Some(&barrier), true, seed);
+    let mut arrival =
+        arrival_times(age, &weathered, within, &orientation(input, STRUCTURE_SIGMA, Some(&clean)), Some(&barrier), true, seed);
+    if let Some(m) = within {
+        smooth_within(&mut arrival, m, &weathered);
+    }
     // Arrival times of the clean pixels, sorted: each frame's front is searched among them.
-    let mut clean_times: Vec<f32> = arrival.iter().zip(weathered.bits()).filter(|(_, &b)| !b).map(|(t, _)| *t).collect();
+    let mut clean_times: Vec<f32> = arrival.iter().zip(clean.bits()).filter(|(_, &b)| b).map(|(t, _)| *t).collect();
     clean_times.sort_by(f32::total_cmp);
     let patch = params.rebuild.patch;
     // The guide is the signed distance to the damage's edge, clamped to
@@ -239,7 +270,7 @@ pub fn future(
     let context = context(input, patch);
     // Per frame, its time and the count of pixels weathered by then: the
     // input's and the clean share weathered by t.
-    let initial = weathered.count() as f32 / (w * h) as f32;
+    let initial = weathered.count() as f32 / within.map_or(w * h, Mask::count).max(1) as f32;
     let fronts: Vec<(f32, usize)> = (1..=params.future)
         .map(|k| {
             let t = 1.0 + params.future_span * k as f32 / params.future as f32;
@@ -266,7 +297,7 @@ pub fn future(
             let outline = |front: f32| {
                 let raw = Image::from_fn(w, h, 1, |x, y, p| p[0] = if front >= arrival[y * w + x] { 1.0 } else { 0.0 });
                 let smooth = gaussian_blur(&raw, OUTLINE_SMOOTHING);
-                Mask::from_fn(w, h, |x, y| reached.get(x, y) || smooth.at(x, y, 0) >= 0.5)
+                Mask::from_fn(w, h, |x, y| reached.get(x, y) || (on(x, y) && smooth.at(x, y, 0) >= 0.5))
             };
             // The pixels to re-draw for a reached outline. Slivers under
             // 3 px wide are not re-drawn: drawn beside the previous frame's
@@ -316,7 +347,7 @@ pub fn future(
         })
         .collect();
     let hole = Mask::from_fn(w, h, |x, y| redraws.iter().any(|r| r.get(x, y)));
-    let layer = damage_layer(input, input, &was, &clamped_edge(&reached, band), &hole, &context, params, seed)?;
+    let layer = damage_layer(input, input, &was, &clamped_edge(&reached, band), &hole, &context, within, params, seed)?;
     let mut previous = input.clone();
     let mut frames = Vec::with_capacity(params.future);
     for (k, (&(t, _), redraw)) in fronts.iter().zip(&redraws).enumerate() {
@@ -332,7 +363,8 @@ pub fn future(
 /// ([`Synthesis::fill`]) from the input, guided by `target_edge`, the
 /// clamped edge distance ([`clamped_edge`]) of the last frame's damage
 /// (source: `source_edge`, the input damage's), and by the wide blur of the
-/// input's colour (`context`: where the material comes from). Every frame
+/// input's colour (`context`: where the material comes from), copying
+/// from `sources` when given. Every frame
 /// takes its re-drawn pixels from this layer, so new damage is one
 /// coherent synthesis that continues the old, the same in every frame.
 #[allow(clippy::too_many_arguments)]
@@ -343,6 +375,7 @@ fn damage_layer(
     target_edge: &[f32],
     hole: &Mask,
     context: &Image,
+    sources: Option<&Mask>,
     params: &SequenceParams,
     seed: u64,
 ) -> Result<Image> {
@@ -353,11 +386,11 @@ fn damage_layer(
     let source_edge = guide(source_edge, context)?;
     let target_edge = guide(target_edge, context)?;
     let op = OptimizeParams { patch, levels: Some(3), search_vote_iters: 6, uniformity: 0.0, ..OptimizeParams::default() };
-    let mut filled = Synthesis::new(input)
-        .fill(base, hole)
-        .guides(&source_edge, &target_edge, params.rebuild.guide_weight)
-        .seed(rng::derive(seed, &[0xf2]))
-        .optimize(&op)?;
+    let mut synthesis = Synthesis::new(input).fill(base, hole).guides(&source_edge, &target_edge, params.rebuild.guide_weight);
+    if let Some(m) = sources {
+        synthesis = synthesis.source_mask(m);
+    }
+    let mut filled = synthesis.seed(rng::derive(seed, &[0xf2])).optimize(&op)?;
     // Verbatim material inside coherent copies: the mean vote alone left
     // grown interiors with a third of the input damage's pixel detail.
     filled.coherent_copies(input, hole);
@@ -428,7 +461,7 @@ impl<'a> Recession<'a> {
         if redraw.count() == 0 {
             return Ok(composite);
         }
-        let layer = damage_layer(&composite, input, &self.was, &now, &redraw, &self.context, params, seed)?;
+        let layer = damage_layer(&composite, input, &self.was, &now, &redraw, &self.context, None, params, seed)?;
         Ok(blend_where(&composite, &layer, &redraw.to_image()))
     }
 }

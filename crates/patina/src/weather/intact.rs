@@ -134,14 +134,28 @@ pub fn weathered_cut(age: &Image, max_fraction: f32) -> (f32, f32) {
     (level, above(level))
 }
 
+/// `age` itself, or with `within` its values there as one row: what
+/// [`weathered_cut`] reads for a masked surface.
+pub fn values_within(age: &Image, within: Option<&Mask>) -> Image {
+    match within {
+        None => age.clone(),
+        Some(m) => {
+            let v: Vec<f32> = age.data().iter().zip(m.bits()).filter(|(_, &b)| b).map(|(a, _)| *a).collect();
+            Image::from_data(v.len(), 1, 1, v).expect("one row")
+        }
+    }
+}
+
 /// The age cut of each layer: the (1 - discard) quantile of its ages, or
-/// with `discard` = `None` the automatic [`weathered_cut`].
-fn layer_cuts(age: &Image, discard: Option<f32>, weathered_max: f32, layers: Option<&Layers>) -> Vec<f32> {
+/// with `discard` = `None` the automatic [`weathered_cut`]; the ages of
+/// pixels within `within` only, when given.
+fn layer_cuts(age: &Image, discard: Option<f32>, weathered_max: f32, layers: Option<&Layers>, within: Option<&Mask>) -> Vec<f32> {
     let label = |i: usize| layers.map_or(0, |l| l.labels[i] as usize);
     let count = layers.map_or(1, |l| l.count);
+    let on = |i: usize| within.is_none_or(|m| m.bits()[i]);
     (0..count)
         .map(|l| {
-            let mut sorted: Vec<f32> = age.data().iter().enumerate().filter(|(i, _)| label(*i) == l).map(|(_, v)| *v).collect();
+            let mut sorted: Vec<f32> = age.data().iter().enumerate().filter(|(i, _)| on(*i) && label(*i) == l).map(|(_, v)| *v).collect();
             if sorted.is_empty() {
                 return f32::INFINITY;
             }
@@ -179,10 +193,13 @@ pub const LINK_REACH: usize = 4;
 /// to 0.50 (gravel 0.31 -> 0.45, planks 0.11 -> 0.17), which the fill
 /// re-makes from the same material. The reach is bounded because an
 /// unbounded link judged 0.53 of clean stucco weathered.
-pub fn allowed_sources(age: &Image, discard: Option<f32>, weathered_max: f32, layers: Option<&Layers>) -> Mask {
-    let cuts = layer_cuts(age, discard, weathered_max, layers);
+/// With `within`, the cuts and the cap are taken over its pixels, and
+/// pixels outside it are never sources.
+pub fn allowed_sources(age: &Image, discard: Option<f32>, weathered_max: f32, layers: Option<&Layers>, within: Option<&Mask>) -> Mask {
+    let cuts = layer_cuts(age, discard, weathered_max, layers, within);
     let label = |i: usize| layers.map_or(0, |l| l.labels[i] as usize);
     let (w, h) = age.size();
+    let area = within.map_or(w * h, Mask::count);
     let mut steps = vec![usize::MAX; w * h];
     let mut queue = std::collections::VecDeque::new();
     for (i, (&a, s)) in age.data().iter().zip(steps.iter_mut()).enumerate() {
@@ -194,7 +211,7 @@ pub fn allowed_sources(age: &Image, discard: Option<f32>, weathered_max: f32, la
     // Linked pixels join nearest first, while the weathered share stays
     // within `weathered_max`; the paper's fixed fraction (`discard`) is
     // kept exact, with no links.
-    let cap = if discard.is_some() { 0 } else { (weathered_max * (w * h) as f32) as usize };
+    let cap = if discard.is_some() { 0 } else { (weathered_max * area as f32) as usize };
     let mut weathered = queue.len();
     while let Some(i) = queue.pop_front() {
         if steps[i] >= LINK_REACH {
@@ -209,11 +226,22 @@ pub fn allowed_sources(age: &Image, discard: Option<f32>, weathered_max: f32, la
             }
         }
     }
-    Mask::from_fn(w, h, |x, y| steps[y * w + x] == usize::MAX)
+    Mask::from_fn(w, h, |x, y| steps[y * w + x] == usize::MAX && within.is_none_or(|m| m.get(x, y)))
 }
 
-/// The intact texture of `img` given its age map.
-pub fn intact(img: &Image, age: &Image, layers: Option<&Layers>, params: &IntactParams, seed: u64) -> Result<Intact> {
+/// The intact texture of `img` given its age map. With `within`, only its
+/// pixels are judged, re-made and copied from (see
+/// [`super::age::age_map_within`]); the others keep `img`, and no tile
+/// grid is looked for unless it covers [`super::age::PERIODIC_COVER`] of
+/// the image.
+pub fn intact(
+    img: &Image,
+    age: &Image,
+    layers: Option<&Layers>,
+    params: &IntactParams,
+    within: Option<&Mask>,
+    seed: u64,
+) -> Result<Intact> {
     if age.size() != img.size() || age.channels() != 1 {
         return Err(Error::invalid(format!(
             "the age map ({}x{}, {} channels) must be one channel the input's size ({}x{})",
@@ -227,18 +255,26 @@ pub fn intact(img: &Image, age: &Image, layers: Option<&Layers>, params: &Intact
     if params.discard.is_some_and(|d| !(0.0..0.95).contains(&d)) || !(params.weathered_max > 0.0 && params.weathered_max < 0.95) {
         return Err(Error::invalid("the discarded fraction must be in [0, 0.95) and the weathered maximum in (0, 0.95)"));
     }
-    let below = allowed_sources(age, params.discard, params.weathered_max, layers);
-    let weathered_fraction = 1.0 - below.count() as f32 / (img.width() * img.height()) as f32;
-    let cut = layer_cuts(age, params.discard, params.weathered_max, None)[0];
+    if within.is_some_and(|m| m.size() != img.size()) {
+        return Err(Error::invalid("the intact texture's mask must be the input's size"));
+    }
+    let (w, h) = img.size();
+    let on = |x: usize, y: usize| within.is_none_or(|m| m.get(x, y));
+    let area = within.map_or(w * h, Mask::count).max(1);
+    let below = allowed_sources(age, params.discard, params.weathered_max, layers, within);
+    let weathered_fraction = 1.0 - below.count() as f32 / area as f32;
+    let cut = layer_cuts(age, params.discard, params.weathered_max, None, within)[0];
     // The weathered pixels and a margin are re-made; only whole patches
     // can be copied, so allowed slivers narrower than the fill's patch are
     // dropped (an opening by its square). Nothing left (weathering
     // everywhere, or a speckled map): every pixel may serve.
-    let hole = Mask::from_fn(img.width(), img.height(), |x, y| !below.get(x, y)).dilate(MARGIN);
-    let kept = Mask::from_fn(img.width(), img.height(), |x, y| !hole.get(x, y));
+    let hole = Mask::from_fn(w, h, |x, y| on(x, y) && !below.get(x, y)).dilate(MARGIN);
+    let hole = Mask::from_fn(w, h, |x, y| on(x, y) && hole.get(x, y));
+    let kept = Mask::from_fn(w, h, |x, y| on(x, y) && !hole.get(x, y));
     let opened = kept.erode(FILL_PATCH / 2).dilate(FILL_PATCH / 2);
-    let allowed = if opened.count() > 0 { opened } else { Mask::filled(img.width(), img.height(), true) };
-    let mut lattice = if params.detect_tiles { tiles::detect(img) } else { None };
+    let allowed = if opened.count() > 0 { opened } else { Mask::from_fn(w, h, on) };
+    let covers = within.is_none_or(|m| m.count() as f32 >= super::age::PERIODIC_COVER * (w * h) as f32);
+    let mut lattice = if params.detect_tiles && covers { tiles::detect(img) } else { None };
     let median = lattice.map(|l| tiles::median_tile(img, &l, Some(&allowed)));
     if let Some(m) = &median {
         // A lattice found on a surface seen in perspective (a roof) repeats
@@ -253,7 +289,7 @@ pub fn intact(img: &Image, age: &Image, layers: Option<&Layers>, params: &Intact
             let image = rebuild(img, &m, Some(&allowed), params.engine, &params.rebuild, seed ^ 0x1a7)?;
             (m, image)
         }
-        _ if hole.count() > 0 && allowed.count() < img.width() * img.height() => {
+        _ if hole.count() > 0 && allowed.count() < w * h => {
             // A mean vote averages overlapping patches that disagree into a
             // milky wash over large holes; robust votes and verbatim copies
             // keep the material's grain (see the module docs). The fill
@@ -299,12 +335,12 @@ mod tests {
         let faint_age = 0.5 * (1.0 + LINK_SHARE) * level;
         let age = map(faint_age);
         assert_eq!(weathered_cut(&age, 0.6).0, level, "the faint parts moved the cut");
-        let allowed = allowed_sources(&age, None, 0.6, None);
+        let allowed = allowed_sources(&age, None, 0.6, None, None);
         let linked = (10..30).filter(|&x| !allowed.get(x, 6)).count();
         assert_eq!(linked, LINK_REACH, "{linked} tail pixels linked");
         assert!((40..60).all(|x| allowed.get(x, 20)), "the lone stroke was linked");
         // 1.5% discarded: the blob's pixels only.
-        let fixed = allowed_sources(&age, Some(0.015), 0.6, None);
+        let fixed = allowed_sources(&age, Some(0.015), 0.6, None, None);
         assert!((10..30).all(|x| fixed.get(x, 6)), "a fixed fraction linked the tail");
     }
 }

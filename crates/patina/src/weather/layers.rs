@@ -122,6 +122,13 @@ impl Layers {
         out
     }
 
+    /// The labels of the area (left, top, width, height), which lies
+    /// inside the layers' image.
+    pub fn crop(&self, (x0, y0, w, h): (usize, usize, usize, usize)) -> Layers {
+        let labels = (y0..y0 + h).flat_map(|y| (x0..x0 + w).map(move |x| (x, y))).map(|(x, y)| self.labels[y * self.width + x]).collect();
+        Layers { width: w, height: h, count: self.count, labels }
+    }
+
     /// As an image: layer l has grey level l / (count - 1).
     pub fn to_image(&self) -> Image {
         let scale = 1.0 / (self.count.max(2) - 1) as f32;

@@ -35,7 +35,7 @@
 //! It only raises ages: thin damage the map found stays found.
 
 use super::age::ColourBins;
-use super::intact::weathered_cut;
+use super::intact::{values_within, weathered_cut};
 use crate::image::filter::gaussian_blur;
 use crate::image::{Image, Mask};
 
@@ -59,16 +59,18 @@ const FLOOR: f32 = 1e-4;
 /// `age` raised where the colour of the surrounding region is much likelier
 /// under the weathered seeds' model than under the intact seeds' (see the
 /// module docs). `appearance` is the Lab features of [`super::Features`].
-pub fn complete_regions(appearance: &Image, age: &Image, max_fraction: f32) -> Image {
+/// With `within`, the cut and both classes' seeds come from its pixels
+/// only.
+pub fn complete_regions(appearance: &Image, age: &Image, max_fraction: f32, within: Option<&Mask>) -> Image {
     let (w, h) = age.size();
-    let (cut, fraction) = weathered_cut(age, max_fraction);
+    let (cut, fraction) = weathered_cut(&values_within(age, within), max_fraction);
     if fraction < MIN_SEEDS {
         return age.clone();
     }
     let seeds = |keep: &dyn Fn(f32) -> bool| {
-        let m = Mask::from_fn(w, h, |x, y| keep(age.at(x, y, 0)));
+        let m = Mask::from_fn(w, h, |x, y| within.is_none_or(|m| m.get(x, y)) && keep(age.at(x, y, 0)));
         let core = m.erode(SEED_EROSION);
-        if core.count() as f32 >= MIN_SEEDS * (w * h) as f32 / 2.0 {
+        if core.count() as f32 >= MIN_SEEDS * within.map_or(w * h, Mask::count) as f32 / 2.0 {
             core
         } else {
             m
@@ -129,7 +131,7 @@ mod tests {
         let age = Image::from_fn(w, h, 1, |x, y, p| {
             p[0] = if (rim.get(x, y) && !core.get(x, y)) || blob(x, y) { 0.9 } else { 0.05 } + jitter(x, y);
         });
-        let raised = complete_regions(&appearance(&img, true).unwrap(), &age, 0.6);
+        let raised = complete_regions(&appearance(&img, true).unwrap(), &age, 0.6, None);
         // Downstream, the automatic cut decides what is weathered.
         let (cut, _) = weathered_cut(&raised, 0.6);
         let share_above = |pick: &Mask, want: bool| {

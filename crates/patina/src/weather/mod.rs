@@ -8,6 +8,7 @@
 //! - [`transfer`]: weathering of one texture carried onto another (section 7).
 //! - [`layers`]: colour layers aged separately.
 //! - [`rebuild`]: templates made real with input patches (all sections).
+//! - [`object`]: a surface that is only part of the photo (`--mask`).
 //!
 //! [`weather`] runs the whole method on one image.
 
@@ -17,6 +18,7 @@ pub mod growth;
 pub mod intact;
 pub mod layers;
 pub mod material;
+pub mod object;
 pub mod rebuild;
 pub mod sequence;
 pub mod tiles;
@@ -28,7 +30,7 @@ pub use intact::{intact, Intact, IntactParams};
 pub use sequence::{Frame, Growth, SequenceParams};
 
 use crate::error::{Error, Result};
-use crate::image::Image;
+use crate::image::{Image, Mask};
 use serde::{Deserialize, Serialize};
 
 /// Every parameter of the method, with the paper's defaults.
@@ -51,6 +53,18 @@ pub struct Overrides<'a> {
     pub intact: Option<&'a Image>,
     /// A user label image for the layers (one grey level per layer).
     pub labels: Option<&'a Image>,
+    /// The surface to weather, when it is only part of the photo (set =
+    /// weathers; see [`object`]): every frame keeps the input outside it
+    /// exactly, and the age map is 0 there. With [`Growth::Patches`] the
+    /// patch blends are still chosen over the whole work area and only
+    /// pasted inside the mask.
+    pub mask: Option<&'a Mask>,
+    /// A pixel (x, y) the user knows is weathering. Prevalence calls the
+    /// commoner material intact, which is wrong where the weathering
+    /// covers most of the surface (a hydrant more rust than paint, stone
+    /// under lichen); when the age map judges this pixel intact (below its
+    /// automatic cut), the age map is turned over (1 - age on the surface).
+    pub weathered_at: Option<(usize, usize)>,
 }
 
 /// Stages of [`weather`], reported to the progress callback.
@@ -77,6 +91,9 @@ pub struct Weathered {
     /// The age cut and the fraction of the surface judged weathered (`None`
     /// with a user intact texture).
     pub weathered: Option<(f32, f32)>,
+    /// Whether the age map was turned over to match
+    /// [`Overrides::weathered_at`].
+    pub flipped: bool,
     /// The colour layers, when asked for.
     pub layers: Option<layers::Layers>,
     /// Every frame in time order: intact (t = 0), past, input (t = 1), future.
@@ -105,12 +122,14 @@ pub fn resolve_layers(input: &Image, count: usize, labels: Option<&Image>, seed:
 
 /// The age map the method uses: the user's (its luminance, clamped to
 /// [0, 1]) or the automatic one with its grid, normalised within each
-/// layer when there are layers.
+/// layer when there are layers; 0 outside `within` when given (see
+/// [`age::age_map_within`]).
 pub fn resolve_age(
     input: &Image,
     params: &AgeParams,
     user: Option<&Image>,
     layers: Option<&layers::Layers>,
+    within: Option<&Mask>,
 ) -> Result<(Image, Option<AgeGrid>)> {
     let (age, grid) = match user {
         Some(a) => {
@@ -126,18 +145,23 @@ pub fn resolve_age(
             (crate::image::color::luminance(a).map(|v| v.clamp(0.0, 1.0)), None)
         }
         None => {
-            let a = age_map(input, params)?;
+            let a = age::age_map_within(input, params, within)?;
             (a.map, Some((a.grid, a.patch, a.k)))
         }
     };
-    let age = match layers {
+    let mut age = match layers {
         Some(l) => l.normalise_age(&age),
         None => age,
     };
+    if let Some(m) = within {
+        age.data_mut().iter_mut().zip(m.bits()).for_each(|(v, &b)| *v = if b { *v } else { 0.0 });
+    }
     Ok((age, grid))
 }
 
 /// The whole method on `input` (sRGB colour or grey, values in [0, 1]).
+/// With a mask ([`Overrides::mask`]) it runs on the masked surface's
+/// [`object::Object`] and pastes every result back over the input.
 pub fn weather(
     input: &Image,
     params: &WeatherParams,
@@ -146,7 +170,90 @@ pub fn weather(
     progress: &(dyn Fn(Stage) + Sync),
 ) -> Result<Weathered> {
     let layers = resolve_layers(input, params.layers, overrides.labels, seed)?;
-    let (age, age_grid) = resolve_age(input, &params.age, overrides.age, layers.as_ref())?;
+    let mask = match overrides.mask {
+        Some(m) if m.size() != input.size() => {
+            return Err(Error::invalid(format!(
+                "the mask is {}x{} but the input is {}x{}",
+                m.width(),
+                m.height(),
+                input.width(),
+                input.height()
+            )))
+        }
+        // A mask of the whole photo is no mask.
+        Some(m) if m.count() == m.width() * m.height() => None,
+        m => m,
+    };
+    if let Some((x, y)) = overrides.weathered_at {
+        if x >= input.width() || y >= input.height() || mask.is_some_and(|m| !m.get(x, y)) {
+            let place = if mask.is_some() { "the mask" } else { "the image" };
+            return Err(Error::invalid(format!("the weathered pixel {x},{y} is outside {place}")));
+        }
+    }
+    let Some(mask) = mask else {
+        return run(input, None, params, overrides, layers, seed, progress);
+    };
+    for (what, img) in [("age map", overrides.age), ("intact texture", overrides.intact)] {
+        if let Some(i) = img.filter(|i| i.size() != input.size()) {
+            return Err(Error::invalid(format!(
+                "the {what} is {}x{} but the input is {}x{}",
+                i.width(),
+                i.height(),
+                input.width(),
+                input.height()
+            )));
+        }
+    }
+    // The band is one age-map cell wide: the widest reach of a patch at
+    // the outline.
+    let (bw, bh) = match crate::image::pixel_bounds(mask.bits().iter().enumerate().filter(|(_, &b)| b).map(|(i, _)| i), input.width()) {
+        Some((x0, y0, x1, y1)) => (x1 - x0 + 1, y1 - y0 + 1),
+        None => return Err(Error::invalid("the mask selects no pixel (white = the surface to weather)")),
+    };
+    let band = params.age.resolve(bw, bh).map_or(params.age.min_patch, |(_, (pw, ph))| pw.max(ph));
+    let object = object::Object::new(input, mask, band, crate::rng::derive(seed, &[5]))?;
+    let age = overrides.age.map(|a| object.crop(a)).transpose()?;
+    let intact_img = overrides.intact.map(|i| object.crop(i)).transpose()?;
+    let part_layers = layers.as_ref().map(|l| l.crop(object.area()));
+    let (x0, y0, _, _) = object.area();
+    let weathered_at = overrides.weathered_at.map(|(x, y)| (x - x0, y - y0));
+    let part_overrides = Overrides { age: age.as_ref(), intact: intact_img.as_ref(), labels: None, mask: None, weathered_at };
+    let part = run(&object.image, Some(&object.within), params, part_overrides, part_layers, seed, progress)?;
+    Ok(Weathered {
+        age: object.paste(None, &part.age),
+        age_grid: part.age_grid,
+        intact: object.paste(Some(input), &part.intact),
+        lattice: part.lattice,
+        weathered: part.weathered,
+        flipped: part.flipped,
+        layers,
+        frames: part.frames.into_iter().map(|f| Frame { t: f.t, image: object.paste(Some(input), &f.image) }).collect(),
+    })
+}
+
+/// The whole method on `input`, judging and changing only `within` when
+/// given (see [`object`]).
+fn run(
+    input: &Image,
+    within: Option<&Mask>,
+    params: &WeatherParams,
+    overrides: Overrides,
+    layers: Option<layers::Layers>,
+    seed: u64,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> Result<Weathered> {
+    let (mut age, age_grid) = resolve_age(input, &params.age, overrides.age, layers.as_ref(), within)?;
+    // Turned over, the weathering is what the map had judged intact, most
+    // of the surface: the cap on the weathered share rises to it (at most
+    // MAX_FLIPPED_SHARE).
+    let mut intact_params = params.intact.clone();
+    let judged = overrides.weathered_at.map(|at| judged_intact(&age, at, within, params.intact.weathered_max));
+    let flipped = judged.is_some_and(|(intact, _)| intact);
+    if let Some((true, share)) = judged {
+        age.data_mut().iter_mut().enumerate().for_each(|(i, v)| *v = if within.is_none_or(|m| m.bits()[i]) { 1.0 - *v } else { 0.0 });
+        intact_params.weathered_max = intact_params.weathered_max.max((1.0 - share).min(MAX_FLIPPED_SHARE));
+    }
+    let params = &WeatherParams { intact: intact_params, ..params.clone() };
     progress(Stage::AgeMap);
     let (intact_img, lattice, weathered) = match overrides.intact {
         Some(i) => {
@@ -164,7 +271,7 @@ pub fn weather(
             (i.clone(), None, None)
         }
         None => {
-            let r = intact(input, &age, layers.as_ref(), &params.intact, crate::rng::derive(seed, &[1]))?;
+            let r = intact(input, &age, layers.as_ref(), &params.intact, within, crate::rng::derive(seed, &[1]))?;
             (r.image, r.lattice, Some((r.cut, r.weathered_fraction)))
         }
     };
@@ -183,9 +290,9 @@ pub fn weather(
         Growth::Front => {
             let cut = match weathered {
                 Some((cut, _)) => cut,
-                None => intact::weathered_cut(&age, params.intact.weathered_max).0,
+                None => intact::weathered_cut(&intact::values_within(&age, within), params.intact.weathered_max).0,
             };
-            growth::future(input, &intact_img, &age, cut, sp, crate::rng::derive(seed, &[3]), &future_progress)?
+            growth::future(input, &intact_img, &age, cut, within, sp, crate::rng::derive(seed, &[3]), &future_progress)?
         }
         Growth::Patches => sequence::future(input, &intact_img, &age, cells, patch, sp, crate::rng::derive(seed, &[3]), &future_progress)?,
     };
@@ -193,5 +300,27 @@ pub fn weather(
     frames.extend(past);
     frames.push(Frame { t: 1.0, image: input.clone() });
     frames.extend(future);
-    Ok(Weathered { age, age_grid, intact: intact_img, lattice, weathered, layers, frames })
+    Ok(Weathered { age, age_grid, intact: intact_img, lattice, weathered, flipped, layers, frames })
+}
+
+/// Largest share of the surface a turned-over age map may call weathered
+/// (see [`Overrides::weathered_at`]).
+pub const MAX_FLIPPED_SHARE: f32 = 0.9;
+
+/// Whether `age` judges the pixel `at` intact (the mean age of its 7 x 7
+/// neighbourhood on the surface lies below the automatic cut), and the
+/// share of the surface the cut judges weathered.
+fn judged_intact(age: &Image, (x, y): (usize, usize), within: Option<&Mask>, weathered_max: f32) -> (bool, f32) {
+    let (cut, share) = intact::weathered_cut(&intact::values_within(age, within), weathered_max);
+    let (w, h) = age.size();
+    let (mut sum, mut n) = (0f32, 0usize);
+    for v in y.saturating_sub(3)..(y + 4).min(h) {
+        for u in x.saturating_sub(3)..(x + 4).min(w) {
+            if within.is_none_or(|m| m.get(u, v)) {
+                sum += age.at(u, v, 0);
+                n += 1;
+            }
+        }
+    }
+    (sum / (n.max(1) as f32) < cut, share)
 }
