@@ -5,8 +5,8 @@
 use crate::output::{check_outputs, manifest_path, save_png, write_sequence, Manifest, OutDir, Stopwatch};
 use crate::progress::with_bar;
 use patina::image::io::{self, BitDepth};
-use patina::image::Image;
-use patina::weather::{self, age_map, intact, layers::Layers, transfer, Overrides, Stage, WeatherParams};
+use patina::image::{Image, Mask};
+use patina::weather::{self, age_map, intact, transfer, Overrides, Stage, Until, WeatherParams};
 use patina::{Error, Result};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -32,6 +32,59 @@ impl From<GrowthArg> for weather::Growth {
             GrowthArg::Front => weather::Growth::Front,
             GrowthArg::Patches => weather::Growth::Patches,
         }
+    }
+}
+
+/// Which part of the image weathers, and which material is the weathering:
+/// flags of `weather`, `age-map` and `intact`.
+#[derive(clap::Args, Clone)]
+pub struct SurfaceArgs {
+    /// The surface to weather: a mask file (white = weathers), `auto` (the object under --point, or else the photo's main object: the largest central region unlike the picture's frame, cut out by GrabCut and written as mask_auto.png beside the outputs) or `none` (the whole image). Pixels outside keep the input and play no part in the age map (no match, region or source comes from them); their age is 0.
+    #[arg(long, default_value = "none")]
+    pub mask: String,
+    /// With --mask auto: a pixel X,Y (from the top left) on the object to weather [default: the main object].
+    #[arg(long, value_parser = crate::object::parse_point)]
+    pub point: Option<(usize, usize)>,
+    /// A pixel X,Y (from the top left) on weathering. The age map calls the commoner material intact, which is wrong when the weathering covers most of the surface (more rust than paint, stone under lichen); if it judged this pixel intact, it is turned over [default: the age map as found].
+    #[arg(long, value_parser = crate::object::parse_point)]
+    pub weathered_at: Option<(usize, usize)>,
+}
+
+impl SurfaceArgs {
+    /// The mask file named, if any (an input of the run).
+    fn file(&self) -> Result<Option<PathBuf>> {
+        crate::object::mask_file(&self.mask, self.point)
+    }
+
+    /// The mask asked for on `input`.
+    fn resolve(&self, input: &Image) -> Result<Option<Mask>> {
+        crate::object::resolve(&self.mask, self.point, input)
+    }
+
+    /// Records in `p` where the mask came from and whether the age map was
+    /// turned over, and writes a found mask to `mask_file` (listed in the
+    /// manifest's outputs).
+    fn record(
+        &self,
+        p: &mut serde_json::Value,
+        mask: Option<&Mask>,
+        flipped: bool,
+        mask_file: &Path,
+        manifest: &mut Manifest,
+    ) -> Result<()> {
+        p["mask_source"] = json!(match self.mask.as_str() {
+            "auto" | "none" => self.mask.clone(),
+            _ => "file".into(),
+        });
+        if let Some(found) = mask {
+            p["mask_share"] = json!(found.count() as f32 / (found.width() * found.height()) as f32);
+            if self.mask == "auto" {
+                save_png(&found.to_image(), mask_file, BitDepth::Eight)?;
+                manifest.outputs.push(mask_file.file_name().map_or_else(|| mask_file.to_path_buf(), PathBuf::from));
+            }
+        }
+        p["age_flipped"] = json!(flipped);
+        Ok(())
     }
 }
 
@@ -117,15 +170,8 @@ pub struct Args {
     /// A user intact texture replacing the automatic one.
     #[arg(long)]
     pub intact: Option<PathBuf>,
-    /// The surface to weather: a mask file (white = weathers), `auto` (the object under --point, or else the photo's main object: the largest central region unlike the picture's frame, cut out by GrabCut and written as mask_auto.png) or `none` (the whole image). Pixels outside keep the input in every frame and play no part in the age map (no match, region or source comes from them).
-    #[arg(long, default_value = "none")]
-    pub mask: String,
-    /// With --mask auto: a pixel X,Y (from the top left) on the object to weather [default: the main object].
-    #[arg(long, value_parser = crate::object::parse_point)]
-    pub point: Option<(usize, usize)>,
-    /// A pixel X,Y (from the top left) on weathering. The age map calls the commoner material intact, which is wrong when the weathering covers most of the surface (more rust than paint, stone under lichen); if it judged this pixel intact, it is turned over [default: the age map as found].
-    #[arg(long, value_parser = crate::object::parse_point)]
-    pub weathered_at: Option<(usize, usize)>,
+    #[command(flatten)]
+    pub surface: SurfaceArgs,
     /// Replace OUT if it exists (only a folder patina wrote; it is swapped in whole when the run succeeds).
     #[arg(long)]
     pub overwrite: bool,
@@ -143,6 +189,8 @@ pub struct SingleArgs {
     /// A user age map to use instead of the automatic one (intact only).
     #[arg(long)]
     pub age_map: Option<PathBuf>,
+    #[command(flatten)]
+    pub surface: SurfaceArgs,
     #[command(flatten)]
     pub method: MethodArgs,
 }
@@ -176,7 +224,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut clock = Stopwatch::start();
     let m = &args.method;
     let mut manifest = Manifest::new("weather", m.seed);
-    let mask_file = crate::object::mask_file(&args.mask, args.point)?;
+    let mask_file = args.surface.file()?;
     let mut inputs: Vec<&Path> = vec![&args.input];
     inputs.extend(args.age_map.as_deref());
     inputs.extend(args.intact.as_deref());
@@ -184,7 +232,7 @@ pub fn run(args: Args) -> Result<()> {
     inputs.extend(mask_file.as_deref());
     let out = OutDir::begin(&args.out, &inputs, args.overwrite)?;
     let input = crate::input::load(&args.input)?;
-    let mask = crate::object::resolve(&args.mask, args.point, &input)?;
+    let mask = args.surface.resolve(&input)?;
     let user_age = args.age_map.as_ref().map(crate::input::load).transpose()?;
     let user_intact = args.intact.as_ref().map(crate::input::load).transpose()?;
     let labels = load_labels(m)?;
@@ -201,7 +249,7 @@ pub fn run(args: Args) -> Result<()> {
         intact: user_intact.as_ref(),
         labels: labels.as_ref(),
         mask: mask.as_ref(),
-        weathered_at: args.weathered_at,
+        weathered_at: args.surface.weathered_at,
     };
     let total = (2 + args.past + args.future) as u64;
     let result = with_bar("weather", |report| {
@@ -221,11 +269,6 @@ pub fn run(args: Args) -> Result<()> {
     save_png(&result.age, dir.join("age_map.png"), BitDepth::Eight)?;
     save_png(&result.intact, dir.join("intact.png"), BitDepth::Eight)?;
     manifest.outputs.extend(["age_map.png".into(), "intact.png".into()]);
-    if args.mask == "auto" {
-        let found = mask.as_ref().expect("a found mask");
-        save_png(&found.to_image(), dir.join("mask_auto.png"), BitDepth::Eight)?;
-        manifest.outputs.push("mask_auto.png".into());
-    }
     if let Some(l) = &result.layers {
         save_png(&l.to_image(), dir.join("layers.png"), BitDepth::Eight)?;
         manifest.outputs.push("layers.png".into());
@@ -245,14 +288,7 @@ pub fn run(args: Args) -> Result<()> {
         p["intact"]["weathered_fraction"] = json!(fraction);
     }
     p["layers_used"] = json!(result.layers.as_ref().map(|l| l.count));
-    p["age"]["flipped"] = json!(result.flipped);
-    p["mask_source"] = json!(match args.mask.as_str() {
-        "auto" | "none" => args.mask.clone(),
-        _ => "file".into(),
-    });
-    if let Some(found) = &mask {
-        p["mask_share"] = json!(found.count() as f32 / (found.width() * found.height()) as f32);
-    }
+    args.surface.record(&mut p, mask.as_ref(), result.flipped, &dir.join("mask_auto.png"), &mut manifest)?;
     manifest.params = p;
     manifest.metrics.insert("weathered_area".into(), json!(weathered_areas(&result.frames, &result.intact)?));
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
@@ -274,20 +310,68 @@ fn weathered_areas(frames: &[weather::Frame], intact: &Image) -> Result<Vec<f32>
         .collect()
 }
 
-fn single_setup(args: &SingleArgs, command: &str) -> Result<(Manifest, PathBuf, Image, Option<Layers>)> {
+/// The age map or the intact texture alone (`until`), written to OUT with
+/// OUT.manifest.json beside it (and, with `--mask auto`, the mask found
+/// as OUT's name with `.mask_auto.png`).
+fn run_single(args: SingleArgs, command: &str, until: Until) -> Result<()> {
+    let mut clock = Stopwatch::start();
     let manifest_file = manifest_path(&args.out);
+    let mask_out = args.out.with_extension("mask_auto.png");
+    let mask_file = args.surface.file()?;
     let mut inputs: Vec<&Path> = vec![&args.input];
     inputs.extend(args.age_map.as_deref());
     inputs.extend(args.method.labels.as_deref());
-    check_outputs(&[&args.out, &manifest_file], &inputs)?;
+    inputs.extend(mask_file.as_deref());
+    let mut outputs: Vec<&Path> = vec![&args.out, &manifest_file];
+    if args.surface.mask == "auto" {
+        outputs.push(&mask_out);
+    }
+    check_outputs(&outputs, &inputs)?;
     io::output_format(&args.out, 3)?;
     let input = crate::input::load(&args.input)?;
     let labels = load_labels(&args.method)?;
-    let layers = weather::resolve_layers(&input, args.method.layers, labels.as_ref(), args.method.seed)?;
+    let user_age = args.age_map.as_ref().map(crate::input::load).transpose()?;
+    let mask = args.surface.resolve(&input)?;
     let mut manifest = Manifest::new(command, args.method.seed);
     manifest.inputs = inputs.iter().map(|p| p.to_path_buf()).collect();
     manifest.outputs = vec![args.out.clone()];
-    Ok((manifest, manifest_file, input, layers))
+    let params = args.method.params();
+    let overrides = Overrides {
+        age: user_age.as_ref(),
+        labels: labels.as_ref(),
+        mask: mask.as_ref(),
+        weathered_at: args.surface.weathered_at,
+        ..Default::default()
+    };
+    let result = with_bar(command, |_| weather::weather_until(&input, &params, overrides, args.method.seed, &|_| {}, until))?;
+    manifest.timings_ms.insert(command.replace('-', "_"), clock.lap());
+    crate::embed::commit_point();
+    let mut p = match until {
+        Until::AgeMap => {
+            save_png(&result.age, &args.out, BitDepth::Eight)?;
+            serde_json::to_value(&params.age).map_err(|e| Error::Internal(e.to_string()))?
+        }
+        _ => {
+            save_png(&result.intact, &args.out, BitDepth::Eight)?;
+            let mut p = serde_json::to_value(&params.intact).map_err(|e| Error::Internal(e.to_string()))?;
+            p["age"] = serde_json::to_value(&params.age).map_err(|e| Error::Internal(e.to_string()))?;
+            p["tiles"] = json!(result.lattice);
+            if let Some((cut, fraction)) = result.weathered {
+                p["age_cut_used"] = json!(cut);
+                p["weathered_fraction"] = json!(fraction);
+            }
+            p
+        }
+    };
+    if let Some((n, patch, k)) = result.age_grid {
+        p["grid_used"] = json!(n);
+        p["patch_used"] = json!([patch.0, patch.1]);
+        p["k_used"] = json!(k);
+    }
+    p["layers_used"] = json!(result.layers.as_ref().map(|l| l.count));
+    args.surface.record(&mut p, mask.as_ref(), result.flipped, &mask_out, &mut manifest)?;
+    manifest.params = p;
+    manifest.write(&manifest_file)
 }
 
 /// `patina age-map`.
@@ -295,42 +379,12 @@ pub fn run_age_map(args: SingleArgs) -> Result<()> {
     if args.age_map.is_some() {
         return Err(Error::invalid("--age-map is an input of 'patina intact', not of 'patina age-map'"));
     }
-    let mut clock = Stopwatch::start();
-    let (mut manifest, manifest_file, input, layers) = single_setup(&args, "age-map")?;
-    let params = args.method.params();
-    let (map, grid) = weather::resolve_age(&input, &params.age, None, layers.as_ref(), None)?;
-    manifest.timings_ms.insert("age_map".into(), clock.lap());
-    crate::embed::commit_point();
-    save_png(&map, &args.out, BitDepth::Eight)?;
-    let mut p = serde_json::to_value(&params.age).map_err(|e| Error::Internal(e.to_string()))?;
-    if let Some((n, patch, k)) = grid {
-        p["grid_used"] = json!(n);
-        p["patch_used"] = json!([patch.0, patch.1]);
-        p["k_used"] = json!(k);
-    }
-    p["layers_used"] = json!(layers.as_ref().map(|l| l.count));
-    manifest.params = p;
-    manifest.write(&manifest_file)
+    run_single(args, "age-map", Until::AgeMap)
 }
 
 /// `patina intact`.
 pub fn run_intact(args: SingleArgs) -> Result<()> {
-    let mut clock = Stopwatch::start();
-    let (mut manifest, manifest_file, input, layers) = single_setup(&args, "intact")?;
-    let params = args.method.params();
-    let user_age = args.age_map.as_ref().map(crate::input::load).transpose()?;
-    let (age, _) = weather::resolve_age(&input, &params.age, user_age.as_ref(), layers.as_ref(), None)?;
-    let result = with_bar("intact", |_| intact(&input, &age, layers.as_ref(), &params.intact, None, args.method.seed))?;
-    manifest.timings_ms.insert("intact".into(), clock.lap());
-    crate::embed::commit_point();
-    save_png(&result.image, &args.out, BitDepth::Eight)?;
-    let mut p = serde_json::to_value(&params.intact).map_err(|e| Error::Internal(e.to_string()))?;
-    p["age"] = serde_json::to_value(&params.age).map_err(|e| Error::Internal(e.to_string()))?;
-    p["tiles"] = json!(result.lattice);
-    p["age_cut_used"] = json!(result.cut);
-    p["weathered_fraction"] = json!(result.weathered_fraction);
-    manifest.params = p;
-    manifest.write(&manifest_file)
+    run_single(args, "intact", Until::Intact)
 }
 
 /// `patina weather-transfer`.

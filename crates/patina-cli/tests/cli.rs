@@ -266,6 +266,21 @@ fn weather_with_a_mask_keeps_the_background_and_refuses_bad_masks() {
         });
         assert!(kept, "{f} changed the background");
     }
+    // age-map and intact take the same mask.
+    for (cmd, name) in [("age-map", "age.png"), ("intact", "intact.png")] {
+        let one = dir.join(name);
+        let r = patina(&[cmd, s(&input), "-o", s(&one), "--mask", s(&mask), "--seed", "2"], None);
+        assert!(r.status.success(), "{cmd}: {}", String::from_utf8_lossy(&r.stderr));
+        let o = load(&one).unwrap();
+        let kept = (0..size * size).filter(|&i| !disc.bits()[i]).all(|i| {
+            if cmd == "age-map" {
+                o.data()[i] == 0.0
+            } else {
+                o.pixel(i % size, i / size) == original.pixel(i % size, i / size)
+            }
+        });
+        assert!(kept, "{cmd} changed the background");
+    }
     let bad = dir.join("bad");
     let small = dir.join("small.png");
     save_png(&patina::image::Image::new(64, 64, 1), &small, BitDepth::Eight).unwrap();

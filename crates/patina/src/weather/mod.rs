@@ -159,6 +159,19 @@ pub fn resolve_age(
     Ok((age, grid))
 }
 
+/// How far [`weather_until`] goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Until {
+    /// The age map only: the result's intact texture is the input itself
+    /// and it has no frames.
+    AgeMap,
+    /// The age map and the intact texture: the frames are the intact
+    /// texture (t = 0) and the input (t = 1).
+    Intact,
+    /// Everything.
+    Frames,
+}
+
 /// The whole method on `input` (sRGB colour or grey, values in [0, 1]).
 /// With a mask ([`Overrides::mask`]) it runs on the masked surface's
 /// [`object::Object`] and pastes every result back over the input.
@@ -168,6 +181,18 @@ pub fn weather(
     overrides: Overrides,
     seed: u64,
     progress: &(dyn Fn(Stage) + Sync),
+) -> Result<Weathered> {
+    weather_until(input, params, overrides, seed, progress, Until::Frames)
+}
+
+/// [`weather`] up to the stage `until`.
+pub fn weather_until(
+    input: &Image,
+    params: &WeatherParams,
+    overrides: Overrides,
+    seed: u64,
+    progress: &(dyn Fn(Stage) + Sync),
+    until: Until,
 ) -> Result<Weathered> {
     let layers = resolve_layers(input, params.layers, overrides.labels, seed)?;
     let mask = match overrides.mask {
@@ -191,7 +216,7 @@ pub fn weather(
         }
     }
     let Some(mask) = mask else {
-        return run(input, None, params, overrides, layers, seed, progress);
+        return run(input, None, params, overrides, layers, seed, progress, until);
     };
     for (what, img) in [("age map", overrides.age), ("intact texture", overrides.intact)] {
         if let Some(i) = img.filter(|i| i.size() != input.size()) {
@@ -218,7 +243,7 @@ pub fn weather(
     let (x0, y0, _, _) = object.area();
     let weathered_at = overrides.weathered_at.map(|(x, y)| (x - x0, y - y0));
     let part_overrides = Overrides { age: age.as_ref(), intact: intact_img.as_ref(), labels: None, mask: None, weathered_at };
-    let part = run(&object.image, Some(&object.within), params, part_overrides, part_layers, seed, progress)?;
+    let part = run(&object.image, Some(&object.within), params, part_overrides, part_layers, seed, progress, until)?;
     Ok(Weathered {
         age: object.paste(None, &part.age),
         age_grid: part.age_grid,
@@ -231,8 +256,9 @@ pub fn weather(
     })
 }
 
-/// The whole method on `input`, judging and changing only `within` when
-/// given (see [`object`]).
+/// The whole method on `input` up to `until`, judging and changing only
+/// `within` when given (see [`object`]).
+#[allow(clippy::too_many_arguments)]
 fn run(
     input: &Image,
     within: Option<&Mask>,
@@ -241,6 +267,7 @@ fn run(
     layers: Option<layers::Layers>,
     seed: u64,
     progress: &(dyn Fn(Stage) + Sync),
+    until: Until,
 ) -> Result<Weathered> {
     let (mut age, age_grid) = resolve_age(input, &params.age, overrides.age, layers.as_ref(), within)?;
     // Turned over, the weathering is what the map had judged intact, most
@@ -255,6 +282,9 @@ fn run(
     }
     let params = &WeatherParams { intact: intact_params, ..params.clone() };
     progress(Stage::AgeMap);
+    if until == Until::AgeMap {
+        return Ok(Weathered { age, age_grid, intact: input.clone(), lattice: None, weathered: None, flipped, layers, frames: Vec::new() });
+    }
     let (intact_img, lattice, weathered) = match overrides.intact {
         Some(i) => {
             if i.size() != input.size() || i.channels() != input.channels() {
@@ -276,6 +306,10 @@ fn run(
         }
     };
     progress(Stage::Intact);
+    if until == Until::Intact {
+        let frames = vec![Frame { t: 0.0, image: intact_img.clone() }, Frame { t: 1.0, image: input.clone() }];
+        return Ok(Weathered { age, age_grid, intact: intact_img, lattice, weathered, flipped, layers, frames });
+    }
     let sp = &params.sequence;
     let past = sequence::past(input, &intact_img, &age, sp, crate::rng::derive(seed, &[2]), &|k| progress(Stage::Past(k, sp.past)))?;
     let (cells, patch) = match age_grid {
