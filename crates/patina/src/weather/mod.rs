@@ -277,7 +277,7 @@ fn run(
     let judged = overrides.weathered_at.map(|at| judged_intact(&age, at, within, params.intact.weathered_max));
     let flipped = judged.is_some_and(|(intact, _)| intact);
     if let Some((true, share)) = judged {
-        age.data_mut().iter_mut().enumerate().for_each(|(i, v)| *v = if within.is_none_or(|m| m.bits()[i]) { 1.0 - *v } else { 0.0 });
+        turn_over(&mut age, within);
         intact_params.weathered_max = intact_params.weathered_max.max((1.0 - share).min(MAX_FLIPPED_SHARE));
     }
     let params = &WeatherParams { intact: intact_params, ..params.clone() };
@@ -337,6 +337,25 @@ fn run(
     Ok(Weathered { age, age_grid, intact: intact_img, lattice, weathered, flipped, layers, frames })
 }
 
+/// Quantile of a turned-over age map (on the surface) that becomes 0.
+pub const TURNED_FLOOR: f32 = 0.02;
+
+/// `age` turned over on the surface (`within`, or all of it): 1 - age,
+/// rescaled so that its [`TURNED_FLOOR`] quantile is 0 and its largest
+/// value 1. The material prevalence had judged weathered (the minority,
+/// rated middling as a whole, say 0.4) would otherwise come out as a
+/// middling 0.6 all over, not as intact.
+fn turn_over(age: &mut Image, within: Option<&Mask>) {
+    let on = |i: usize| within.is_none_or(|m| m.bits()[i]);
+    let turned: Vec<f32> = age.data().iter().enumerate().filter(|&(i, _)| on(i)).map(|(_, v)| 1.0 - v).collect();
+    let mut scaled = turned.clone();
+    age::rescale(&mut scaled, &turned, TURNED_FLOOR, 1.0);
+    let mut next = scaled.into_iter();
+    for (i, v) in age.data_mut().iter_mut().enumerate() {
+        *v = if on(i) { next.next().expect("one value per surface pixel") } else { 0.0 };
+    }
+}
+
 /// Largest share of the surface a turned-over age map may call weathered
 /// (see [`Overrides::weathered_at`]).
 pub const MAX_FLIPPED_SHARE: f32 = 0.9;
@@ -357,4 +376,24 @@ fn judged_intact(age: &Image, (x, y): (usize, usize), within: Option<&Mask>, wea
         }
     }
     (sum / (n.max(1) as f32) < cut, share)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A map that rated the majority 0.05 and the minority a middling 0.4,
+    /// turned over: the minority is intact (0, not 0.6), the majority fully
+    /// weathered, and off the surface stays 0.
+    #[test]
+    fn a_turned_over_map_rates_the_former_minority_intact() {
+        let (w, h) = (40, 20);
+        let minority = |x: usize| x < 12;
+        let mut age = Image::from_fn(w, h, 1, |x, y, p| p[0] = if minority(x) { 0.4 + 0.001 * y as f32 } else { 0.05 });
+        let within = Mask::from_fn(w, h, |x, _| x < 36);
+        turn_over(&mut age, Some(&within));
+        let at = |x: usize, y: usize| age.at(x, y, 0);
+        assert!((0..h).all(|y| at(3, y) < 0.05), "the minority became {:.2}", at(3, 0));
+        assert!((0..h).all(|y| at(20, y) > 0.99 && at(38, y) == 0.0));
+    }
 }
