@@ -928,3 +928,36 @@ fn a_weathered_pixel_turns_over_a_map_that_called_the_majority_intact() {
     assert!(!hinted.flipped, "a map that found the rust was turned over");
     assert!(roc_auc(hinted.age.data(), truth.bits()) > 0.9);
 }
+
+/// A wide piece of rust that holds two older colonies (its age peaks at
+/// its two ends) recedes towards both, not from one end to the other:
+/// at t = 0.25 damage remains at each colony. With one seed per piece
+/// the far colony had gone.
+#[test]
+fn a_wide_piece_recedes_towards_each_of_its_older_colonies() {
+    let size = 192;
+    let base = samples::stucco(size, size, 5);
+    let blob = |x: usize, y: usize| (24..168).contains(&x) && (66..126).contains(&y);
+    let colonies = [(48.0f32, 96.0f32), (144.0, 96.0)];
+    let img = Image::from_fn(size, size, 3, |x, y, p| {
+        let grain = base.at(x, y, 0) - 0.5;
+        let rust = [0.55 + 0.3 * grain, 0.25 + 0.15 * grain, 0.08];
+        p.copy_from_slice(if blob(x, y) { &rust } else { base.pixel(x, y) });
+    });
+    let age = Image::from_fn(size, size, 1, |x, y, p| {
+        let peak =
+            colonies.iter().map(|&(cx, cy)| (-((x as f32 - cx).powi(2) + (y as f32 - cy).powi(2)) / 128.0).exp()).fold(0.0, f32::max);
+        p[0] = if blob(x, y) { 0.6 + 0.35 * peak } else { 0.0 };
+    });
+    let mut p = WeatherParams::default();
+    (p.sequence.past, p.sequence.future) = (3, 0);
+    let r = weather::weather(&img, &p, Overrides { age: Some(&age), intact: Some(&base), ..Default::default() }, 7, &|_| {}).unwrap();
+    let early = colour_distance(&r.frames[1].image, &base).unwrap();
+    let near = |(cx, cy): (f32, f32)| {
+        let around: Vec<usize> = (0..size * size).filter(|&i| ((i % size) as f32 - cx).hypot((i / size) as f32 - cy) < 10.0).collect();
+        around.iter().filter(|&&i| early[i] > 0.1).count() as f32 / around.len() as f32
+    };
+    let (left, right) = (near(colonies[0]), near(colonies[1]));
+    eprintln!("t = 0.25: damage covers {left:.2} and {right:.2} of the two colonies");
+    assert!(left > 0.5 && right > 0.5, "at t = 0.25, damage covers {left:.2} and {right:.2} of the two colonies");
+}
