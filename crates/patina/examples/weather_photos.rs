@@ -10,6 +10,9 @@
 //! - weathered: the fraction the automatic cut judged weathered;
 //! - pacing: the largest share of the intact -> input change that one of
 //!   the past steps brings ([`patina::metrics::pacing`]; even = 0.25);
+//! - spread: how unevenly over the picture the t = 0.5 frame has made that
+//!   change ([`patina::metrics::reveal_spread`]; 0 = every region at the
+//!   same stage, 0.5 = half done and half not begun);
 //! - t1->t2: the share of pixels that visibly change (colour distance over
 //!   0.1) from the input to the t = 2 frame;
 //! - coh t2: the t = 2 frame's patch coherence against the input over the
@@ -23,7 +26,7 @@ use common::peak_rss_mib;
 use patina::image::io::{load, save_png, BitDepth};
 use patina::image::resample::{resize, Filter};
 use patina::image::Mask;
-use patina::metrics::{bidirectional, pacing, self_similarity};
+use patina::metrics::{bidirectional, pacing, reveal_spread, self_similarity};
 use patina::weather::rebuild::colour_distance;
 use patina::weather::{self, Growth, WeatherParams};
 use std::process::Command;
@@ -42,6 +45,7 @@ fn run_one(path: &str, side: usize, out: Option<&str>, growth: Growth) {
     let frames: Vec<&patina::Image> = r.frames.iter().map(|f| &f.image).collect();
     let past = &frames[..=4];
     let pace = pacing(past).expect("pacing");
+    let spread = reveal_spread(past[0], past[2], past[4]).expect("spread");
     let input = frames[4];
     let last = frames[frames.len() - 1];
     let d = colour_distance(last, input).expect("distance");
@@ -55,7 +59,10 @@ fn run_one(path: &str, side: usize, out: Option<&str>, growth: Growth) {
     let front = near as f32 / new_count as f32;
     let weathered = r.weathered.map_or(f32::NAN, |w| w.1);
     let name = std::path::Path::new(path).file_stem().unwrap().to_string_lossy().to_string();
-    println!("{name}\t{w}x{h}\t{secs:.1}\t{:.0}\t{weathered:.2}\t{pace:.2}\t{ageing:.3}\t{coh:.2}\t{front:.2}", peak_rss_mib());
+    println!(
+        "{name}\t{w}x{h}\t{secs:.1}\t{:.0}\t{weathered:.2}\t{pace:.2}\t{spread:.2}\t{ageing:.3}\t{coh:.2}\t{front:.2}",
+        peak_rss_mib()
+    );
     if let Some(dir) = out {
         let dir = std::path::Path::new(dir).join(&name);
         std::fs::create_dir_all(&dir).unwrap();
@@ -80,7 +87,7 @@ fn main() {
     let out = args.get(2);
     let mut photos: Vec<_> = std::fs::read_dir(dir).expect("photo folder").map(|e| e.unwrap().path()).collect();
     photos.sort();
-    println!("photo\tsize\ts\tMiB\tweathered\tpacing\tt1->t2\tcoh t2\tfront");
+    println!("photo\tsize\ts\tMiB\tweathered\tpacing\tspread\tt1->t2\tcoh t2\tfront");
     for p in photos {
         let mut cmd = Command::new(std::env::current_exe().unwrap());
         cmd.arg("--one").arg(&p).arg(&side);

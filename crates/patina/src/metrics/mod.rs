@@ -280,8 +280,65 @@ pub fn pacing(frames: &[&Image]) -> Result<f32> {
     Ok(if total > 0.0 { (steps.iter().copied().fold(0.0, f64::max) / total) as f32 } else { 0.0 })
 }
 
+/// Blocks per side over which [`reveal_spread`] compares the change.
+pub const SPREAD_BLOCKS: usize = 4;
+
+/// How unevenly over the picture a frame between `first` and `last` has
+/// made their change: per block of a [`SPREAD_BLOCKS`]^2 grid, the share
+/// of the block's change (colour distance, first to last, summed) that
+/// `frame` holds, and the standard deviation of those shares weighted by
+/// each block's change (blocks holding under 0.1% of it are left out).
+/// 0: every region at the same stage; 0.5: half the picture done, half
+/// not begun.
+pub fn reveal_spread(first: &Image, frame: &Image, last: &Image) -> Result<f32> {
+    if first.size() != frame.size()
+        || first.size() != last.size()
+        || first.channels() != frame.channels()
+        || first.channels() != last.channels()
+    {
+        return Err(Error::invalid("the frames differ in size or channel count"));
+    }
+    let (w, h) = first.size();
+    let n = first.channels();
+    let dist = |a: &Image, i: usize| -> f64 {
+        a.data()[i * n..(i + 1) * n]
+            .iter()
+            .zip(&first.data()[i * n..(i + 1) * n])
+            .map(|(x, y)| ((x - y) as f64).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let b = SPREAD_BLOCKS;
+    let (mut total, mut made) = (vec![0f64; b * b], vec![0f64; b * b]);
+    for i in 0..w * h {
+        let k = ((i / w) * b / h) * b + (i % w) * b / w;
+        total[k] += dist(last, i);
+        made[k] += dist(frame, i);
+    }
+    let all: f64 = total.iter().sum();
+    let blocks: Vec<(f64, f64)> = (0..b * b).filter(|&k| total[k] > 1e-3 * all).map(|k| (made[k] / total[k], total[k])).collect();
+    let weight: f64 = blocks.iter().map(|&(_, t)| t).sum();
+    if weight <= 0.0 {
+        return Ok(0.0);
+    }
+    let mean = blocks.iter().map(|&(s, t)| s * t).sum::<f64>() / weight;
+    Ok((blocks.iter().map(|&(s, t)| t * (s - mean).powi(2)).sum::<f64>() / weight).sqrt() as f32)
+}
+
 #[cfg(test)]
 mod tests {
+    /// Half the picture done and half not begun spreads 0.5; the same
+    /// change made halfway everywhere spreads 0.
+    #[test]
+    fn reveal_spread_tells_a_sweep_from_an_even_fade() {
+        use crate::image::Image;
+        let (first, last) = (Image::new(64, 64, 3), Image::from_fn(64, 64, 3, |_, _, p| p.fill(1.0)));
+        let sweep = Image::from_fn(64, 64, 3, |x, _, p| p.fill(if x < 32 { 1.0 } else { 0.0 }));
+        let fade = Image::from_fn(64, 64, 3, |_, _, p| p.fill(0.5));
+        assert!((super::reveal_spread(&first, &sweep, &last).unwrap() - 0.5).abs() < 1e-6);
+        assert!(super::reveal_spread(&first, &fade, &last).unwrap() < 1e-6);
+    }
+
     #[test]
     fn auc_is_one_for_separated_scores_and_half_for_ties() {
         assert_eq!(roc_auc(&[0.1, 0.2, 0.8, 0.9], &[false, false, true, true]), 1.0);
