@@ -40,6 +40,7 @@ use crate::image::region::neighbours;
 use crate::image::{Image, Mask};
 use crate::synth::{OptimizeParams, Synthesis, VoteWeights};
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
 /// Patch side of the fill that makes the stochastic template.
 const FILL_PATCH: usize = 7;
@@ -136,12 +137,12 @@ pub fn weathered_cut(age: &Image, max_fraction: f32) -> (f32, f32) {
 
 /// `age` itself, or with `within` its values there as one row: what
 /// [`weathered_cut`] reads for a masked surface.
-pub fn values_within(age: &Image, within: Option<&Mask>) -> Image {
+pub fn values_within<'a>(age: &'a Image, within: Option<&Mask>) -> Cow<'a, Image> {
     match within {
-        None => age.clone(),
+        None => Cow::Borrowed(age),
         Some(m) => {
             let v: Vec<f32> = age.data().iter().zip(m.bits()).filter(|(_, &b)| b).map(|(a, _)| *a).collect();
-            Image::from_data(v.len(), 1, 1, v).expect("one row")
+            Cow::Owned(Image::from_data(v.len(), 1, 1, v).expect("one row"))
         }
     }
 }

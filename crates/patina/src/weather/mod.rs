@@ -218,27 +218,9 @@ pub fn weather_until(
     let Some(mask) = mask else {
         return run(input, None, params, overrides, layers, seed, progress, until);
     };
-    for (what, img) in [("age map", overrides.age), ("intact texture", overrides.intact)] {
-        if let Some(i) = img.filter(|i| i.size() != input.size()) {
-            return Err(Error::invalid(format!(
-                "the {what} is {}x{} but the input is {}x{}",
-                i.width(),
-                i.height(),
-                input.width(),
-                input.height()
-            )));
-        }
-    }
-    // The band is one age-map cell wide: the widest reach of a patch at
-    // the outline.
-    let (bw, bh) = match crate::image::pixel_bounds(mask.bits().iter().enumerate().filter(|(_, &b)| b).map(|(i, _)| i), input.width()) {
-        Some((x0, y0, x1, y1)) => (x1 - x0 + 1, y1 - y0 + 1),
-        None => return Err(Error::invalid("the mask selects no pixel (white = the surface to weather)")),
-    };
-    let band = params.age.resolve(bw, bh).map_or(params.age.min_patch, |(_, (pw, ph))| pw.max(ph));
-    let object = object::Object::new(input, mask, band, crate::rng::derive(seed, &[5]))?;
-    let age = overrides.age.map(|a| object.crop(a)).transpose()?;
-    let intact_img = overrides.intact.map(|i| object.crop(i)).transpose()?;
+    let object = object::Object::new(input, mask, &params.age, crate::rng::derive(seed, &[5]))?;
+    let age = overrides.age.map(|a| object.crop(a, "age map")).transpose()?;
+    let intact_img = overrides.intact.map(|i| object.crop(i, "intact texture")).transpose()?;
     let part_layers = layers.as_ref().map(|l| l.crop(object.area()));
     let (x0, y0, _, _) = object.area();
     let weathered_at = overrides.weathered_at.map(|(x, y)| (x - x0, y - y0));

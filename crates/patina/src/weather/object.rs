@@ -2,7 +2,8 @@
 //! background, a wall around a sign): what `--mask` runs on. Not in the
 //! paper, whose inputs are whole textures.
 //!
-//! The method works on the mask's bounding box widened by a band
+//! The method works on the mask's bounding box widened by a band one
+//! age-map cell wide, the widest reach of a patch at the outline
 //! ([`Object::new`]). The band outside the mask is filled with the
 //! surface's own material ([`Synthesis::fill`], copying from the mask only),
 //! so that the patches at the outline compare material with material
@@ -13,6 +14,7 @@
 //! back over the input ([`Object::paste`]), which keeps every pixel outside
 //! the mask exactly.
 
+use super::age::AgeParams;
 use crate::error::{Error, Result};
 use crate::image::{pixel_bounds, Image, Mask};
 use crate::synth::{OptimizeParams, Synthesis, VoteWeights};
@@ -36,15 +38,17 @@ pub struct Object {
 
 impl Object {
     /// The surface `mask` marks on `input` (the same size; set = weathers),
-    /// with a filled band `band` px wide around it. Errors when the mask is
-    /// another size or selects nothing.
-    pub fn new(input: &Image, mask: &Mask, band: usize, seed: u64) -> Result<Object> {
+    /// with a filled band around it one cell of the age map `age` makes of
+    /// the mask's box wide. Errors when the mask is another size or
+    /// selects nothing.
+    pub fn new(input: &Image, mask: &Mask, age: &AgeParams, seed: u64) -> Result<Object> {
         let (w, h) = input.size();
         if mask.size() != (w, h) {
             return Err(Error::invalid(format!("the mask is {}x{} but the input is {w}x{h}", mask.width(), mask.height())));
         }
         let (x0, y0, x1, y1) = pixel_bounds(mask.bits().iter().enumerate().filter(|(_, &b)| b).map(|(i, _)| i), w)
             .ok_or_else(|| Error::invalid("the mask selects no pixel (white = the surface to weather)"))?;
+        let band = age.resolve(x1 - x0 + 1, y1 - y0 + 1).map_or(age.min_patch, |(_, (pw, ph))| pw.max(ph));
         let (x0, y0) = (x0.saturating_sub(band), y0.saturating_sub(band));
         let (x1, y1) = ((x1 + band).min(w - 1), (y1 + band).min(h - 1));
         let (cw, ch) = (x1 - x0 + 1, y1 - y0 + 1);
@@ -67,11 +71,12 @@ impl Object {
         Ok(Object { area: (x0, y0, cw, ch), full: (w, h), image, within })
     }
 
-    /// `img` (the photo's size) cropped to the work area.
-    pub fn crop(&self, img: &Image) -> Result<Image> {
+    /// `img` (the photo's size; `what` names it in the error) cropped to
+    /// the work area.
+    pub fn crop(&self, img: &Image, what: &str) -> Result<Image> {
         if img.size() != self.full {
             return Err(Error::invalid(format!(
-                "an image is {}x{} but the input is {}x{}",
+                "the {what} is {}x{} but the input is {}x{}",
                 img.width(),
                 img.height(),
                 self.full.0,
