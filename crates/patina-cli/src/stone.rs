@@ -25,7 +25,8 @@ pub struct Args {
     pub photo: PathBuf,
     /// Object mask: a file (white = stone), `auto` (the photo's alpha if it
     /// has one, else the grey stone object found by colour and texture
-    /// clustering and cut out by GrabCut, written as mask_auto.png; the
+    /// clustering and cut out by GrabCut, with its shadowed side (darker than
+    /// the background around it, of the stone's hue), written as mask_auto.png; the
     /// weathering fades in over 2 px from its outline) or `none` (the whole image).
     #[arg(long, default_value = "auto")]
     pub mask: String,

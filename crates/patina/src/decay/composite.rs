@@ -37,7 +37,7 @@
 
 use super::layer::{self, Relief};
 use crate::image::color::{lab_pixel_lit, lab_pixel_to_srgb, linear_pixel_to_lab, luminance, srgb_to_linear, LUMA};
-use crate::image::filter::gaussian_blur;
+use crate::image::filter::{gaussian_blur, weighted_blur};
 use crate::image::noise::smoothstep;
 use crate::image::stain::StainField;
 pub use crate::image::stain::Transition;
@@ -365,17 +365,6 @@ pub fn matted_coverage(mask: &Mask, pad: usize, photo_lab: &Image) -> Option<Ima
         *c = ((alpha - MATTE_SLACK) / (1.0 - 2.0 * MATTE_SLACK)).clamp(0.0, 1.0);
     });
     Some(coverage)
-}
-
-/// The two halves of a normalised convolution: `values` (any number of
-/// channels) weighted per pixel by `weight` (one channel) and blurred by
-/// a Gaussian of `sigma`, and `weight` blurred alike. Their ratio is the
-/// weighted local mean; each caller divides where the weight is enough.
-fn weighted_blur(values: &Image, weight: &Image, sigma: f32) -> (Image, Image) {
-    let mut held = values.clone();
-    let n = values.channels();
-    held.data_mut().chunks_exact_mut(n).zip(weight.data()).for_each(|(px, &m)| px.iter_mut().for_each(|v| *v *= m));
-    (gaussian_blur(&held, sigma), gaussian_blur(weight, sigma))
 }
 
 /// The object's own colour (Lab) on the pixels of its silhouette that it

@@ -66,6 +66,17 @@ pub fn gaussian_blur(img: &Image, sigma: f32) -> Image {
     direct_blur(img, sigma)
 }
 
+/// The two halves of a normalised convolution: `values` (any number of
+/// channels) weighted per pixel by `weight` (one channel) and blurred by
+/// a Gaussian of `sigma`, and `weight` blurred alike. Their ratio is the
+/// weighted local mean; each caller divides where the weight is enough.
+pub fn weighted_blur(values: &Image, weight: &Image, sigma: f32) -> (Image, Image) {
+    let mut held = values.clone();
+    let n = values.channels();
+    held.data_mut().chunks_exact_mut(n).zip(weight.data()).for_each(|(px, &m)| px.iter_mut().for_each(|v| *v *= m));
+    (gaussian_blur(&held, sigma), gaussian_blur(weight, sigma))
+}
+
 /// The Gaussian blur by `sigma` done on a copy shrunk by `f` (see
 /// [`gaussian_blur`]: a triangle prefilter, the remaining sigma
 /// sqrt(sigma^2 - f^2/3) / f, a bilinear stretch back). `None` when the

@@ -209,10 +209,10 @@ pub fn chips(w: usize, h: usize, seed: u64) -> Image {
 /// counting only the pixels where `inside` is 1 (a normalised
 /// convolution); `fallback` where no such pixel is near.
 fn local_mean(values: &Image, inside: &Image, sigma: f32, fallback: f32) -> Image {
-    let (w, h) = values.size();
-    let weighted = Image::from_fn(w, h, 1, |x, y, p| p[0] = values.at(x, y, 0) * inside.at(x, y, 0));
-    let (num, den) = (crate::image::filter::gaussian_blur(&weighted, sigma), crate::image::filter::gaussian_blur(inside, sigma));
-    Image::from_fn(w, h, 1, |x, y, p| p[0] = if den.at(x, y, 0) > 1e-6 { num.at(x, y, 0) / den.at(x, y, 0) } else { fallback })
+    let (num, den) = crate::image::filter::weighted_blur(values, inside, sigma);
+    Image::from_fn(values.width(), values.height(), 1, |x, y, p| {
+        p[0] = if den.at(x, y, 0) > 1e-6 { num.at(x, y, 0) / den.at(x, y, 0) } else { fallback }
+    })
 }
 
 /// Blur of the weight map (px).
