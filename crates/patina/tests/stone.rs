@@ -368,6 +368,25 @@ fn the_silhouette_erodes_fastest_at_the_top_without_a_ghost_outline() {
     );
 }
 
+/// The ring a tight mask is dilated by (part stone, part background) is
+/// eroded with the object but never weathered: standing, it keeps the
+/// photo's pixels, so where it stays (the foot, or without erosion) no
+/// weathered fringe of background shows along the outline.
+#[test]
+fn the_rim_ring_keeps_the_photo_while_it_stands() {
+    let params = StoneParams { erosion: false, ..Default::default() };
+    let (input, mask) = (photo(), slab());
+    let prep = stone::prepare(&input, Some(&mask), None, &params).unwrap();
+    let ring: Vec<usize> = (0..W * H).filter(|&i| prep.mask.bits()[i] && !mask.bits()[i]).collect();
+    assert!(ring.len() > 500, "the ring has {} px", ring.len());
+    let last = stone::sequence(&prep, &[0.0, 200.0], 3, None).unwrap().pop().unwrap();
+    let changed = ring.iter().filter(|&&i| last.image.pixel(i % W, i / W) != input.pixel(i % W, i / W)).count();
+    assert_eq!(changed, 0, "{changed} of {} ring pixels weathered", ring.len());
+    // The stone proper does weather.
+    let inside = (0..W * H).filter(|&i| mask.bits()[i] && last.image.pixel(i % W, i / W) != input.pixel(i % W, i / W)).count();
+    assert!(inside * 2 > mask.count(), "only {inside} of {} stone pixels changed", mask.count());
+}
+
 /// Diagonal stripes, 10 px apart: a background whose every pixel the
 /// test knows and that a mirror across the outline turns into chevrons.
 fn stripes(x: usize, y: usize) -> [f32; 3] {

@@ -86,8 +86,9 @@ pub struct StoneParams {
     /// Pixels a (partial) object mask is dilated by, to take in the
     /// object's anti-aliased rim.
     pub mask_dilation: usize,
-    /// Width (px) over which the weathering fades in from the mask's edge
-    /// (0: none). Used with masks that may be off by a few pixels, such as
+    /// Width (px) over which the weathering fades in from the given mask's
+    /// edge (0: none; the dilated ring beyond it is never weathered). Used
+    /// with masks that may be off by a few pixels, such as
     /// [`select::auto_mask`]'s, so their outline does not show.
     pub feather: f32,
 }
@@ -122,6 +123,10 @@ pub struct Prepared {
     pub original: Image,
     /// The object: the given mask dilated by `params.mask_dilation`.
     pub mask: Mask,
+    /// The object proper: the given mask. The ring `mask` adds around it
+    /// (the anti-aliased rim, part stone and part background) erodes with
+    /// the object but, while it stands, keeps the photo's colours.
+    pub object: Mask,
     /// The only pixels weathered stone is borrowed from: the object proper
     /// (the given mask; the rim is part stone, part background) less a band
     /// along its outline ([`sources`]).
@@ -237,6 +242,7 @@ pub fn prepare(photo: &Image, mask: Option<&Mask>, rough_sample: Option<&Image>,
         linear,
         original: rgb,
         mask,
+        object: tight,
         sources,
         masked,
         tendency,
@@ -330,7 +336,12 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         None
     };
     let lit = lit_chromaticity(&prep.linear, &prep.mask, prep.scale);
-    let fade: Option<Vec<f32>> = (p.feather > 0.0).then(|| prep.mask.distance_inside().iter().map(|d| (d / p.feather).min(1.0)).collect());
+    // The share of the weathering each standing pixel shows: none on the
+    // rim ring (weathered as stone, the board or the shadow it half holds
+    // turned into an orange fringe or a grey line where the foot kept it),
+    // fading in over `feather` px inside the object proper.
+    let inside = prep.object.distance_inside();
+    let fade: Vec<f32> = inside.iter().map(|&d| if p.feather > 0.0 { (d / p.feather).min(1.0) } else { f32::from(d > 0.0) }).collect();
     let mut done = 0;
     let mut frames = Vec::with_capacity(times.len());
     for (i, &t) in times.iter().enumerate() {
@@ -358,7 +369,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         for y in 0..h {
             for x in 0..w {
                 if object.get(x, y) {
-                    let (px, f) = (weathered.pixel(x, y), fade.as_ref().map_or(1.0, |fade| fade[y * w + x]));
+                    let (px, f) = (weathered.pixel(x, y), fade[y * w + x]);
                     image.pixel_mut(x, y).iter_mut().zip(px).for_each(|(o, &v)| *o += f * (encode(v) - *o));
                 }
             }
