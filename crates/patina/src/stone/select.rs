@@ -11,7 +11,9 @@
 //! contrast-sensitive smoothness, then the outline re-cut at full
 //! resolution), which moves the outline onto the photo's own edges and
 //! drops props the clusters took in (markers, cardboard, a strip of
-//! background).
+//! background). The stone's shadowed side, which the cut's global colour
+//! models can give to a dark background, then joins it where it is darker
+//! than the background around it ([`with_attached_shadow`]).
 //!
 //! Not done: the tendency does not seed the cut (the issue suggests it);
 //! the clusters do. A grey object on a grey background (a statue against
