@@ -173,8 +173,7 @@ fn room_behind(object: &Mask) -> Mask {
 /// that background 2 of 5).
 fn standing(object: &Mask) -> Vec<f32> {
     let (w, h) = object.size();
-    let rows: Vec<usize> = (0..h).filter(|&y| (0..w).any(|x| object.get(x, y))).collect();
-    let (Some(&top), Some(&bottom)) = (rows.first(), rows.last()) else {
+    let Some((_, top, _, bottom)) = super::bounds(set_pixels(object), w) else {
         return vec![1.0; w * h];
     };
     let band = FOOT * (bottom - top + 1) as f32;

@@ -136,12 +136,12 @@ pub fn with_attached_shadow(lab: &Image, object: &Mask) -> Mask {
     };
     let (ring, rim) = (band(&outside, RING), band(&inside, RIM));
     let lab = filter::gaussian_blur(lab, HUE_BLUR);
-    let lightness = Image::from_fn(w, h, 2, |x, y, p| {
-        let l = lab.at(x, y, 0);
-        p.copy_from_slice(&[l, l * l])
+    // The ring's sums of L, a, b and L^2 (for the spread) in one pass.
+    let with_square = Image::from_fn(w, h, 4, |x, y, p| {
+        let px = lab.pixel(x, y);
+        p.copy_from_slice(&[px[0], px[1], px[2], px[0] * px[0]])
     });
-    let (l_sum, ring_weight) = filter::weighted_blur(&lightness, &ring, LOCAL * unit);
-    let (ring_lab, _) = filter::weighted_blur(&lab, &ring, LOCAL * unit);
+    let (ring_lab, ring_weight) = filter::weighted_blur(&with_square, &ring, LOCAL * unit);
     let (rim_lab, rim_weight) = filter::weighted_blur(&lab, &rim, LOCAL * unit);
     let shadow = Mask::from_fn(w, h, |x, y| {
         let i = y * w + x;
@@ -149,8 +149,8 @@ pub fn with_attached_shadow(lab: &Image, object: &Mask) -> Mask {
         if !(outside[i] > 0.0 && outside[i] <= SHADOW_REACH * unit && rw > 1e-3 && iw > 1e-3) {
             return false;
         }
-        let mean = l_sum.at(x, y, 0) / rw;
-        let spread = (l_sum.at(x, y, 1) / rw - mean * mean).max(0.0).sqrt().max(MIN_SPREAD);
+        let mean = ring_lab.at(x, y, 0) / rw;
+        let spread = (ring_lab.at(x, y, 3) / rw - mean * mean).max(0.0).sqrt().max(MIN_SPREAD);
         let hue = |m: &Image, wt: f32| (lab.at(x, y, 1) - m.at(x, y, 1) / wt).hypot(lab.at(x, y, 2) - m.at(x, y, 2) / wt);
         (lab.at(x, y, 0) - mean) / spread < -SHADOW_Z && hue(&rim_lab, iw) < hue(&ring_lab, rw)
     });
