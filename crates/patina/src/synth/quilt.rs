@@ -694,33 +694,32 @@ const PENALIZED_SLACK: f32 = 2.0;
 pub const CAP_COST_SLACK: f32 = 2.0;
 
 /// The material-share part of a candidate's cost factor for its weighted
-/// excess `e` ([`Usage::excess`] x [`QuiltParams::families`]): 1 + e for
-/// a block of over-used materials, 1 / (1 - e) for one of under-used
-/// materials, so a starved material is favoured as an over-used one is
-/// held back.
+/// excess `e` ([`Usage::excess`] x [`QuiltParams::families`]) and its
+/// reuse factor `reuse` (1 + [`QuiltParams::reuse`] x the use of the spot
+/// offering it): 1 + e for a block of over-used materials, 1 / (1 - e /
+/// reuse) for one of under-used materials, so a starved material is
+/// favoured as an over-used one is held back, and the favour fades with
+/// the reuse of the spot offering it.
 ///
-/// A candidate of under-used materials gets share_factor(e / (1 + reuse x
-/// its spot's use)) ([`Pass::place`]): its favour fades with the reuse of
-/// the spot offering it. At
-/// the full favour, a material held by one spot of the exemplar (a patch
-/// of dark speckle at copper_patinating's left edge) out-weighed the
-/// reuse penalty, and that one spot was pasted again and again until its
-/// family's share was met: three copies stacked down the output's left
-/// edge, where each row's first block meets only the block above. Faded,
-/// a material spread over many spots (copper's teal patina) is still
-/// favoured at its fresh ones. On the time-lapses of examples/ttf_quality
-/// (100 frames, seed 1) the middle frame's near-verbatim share fell on all
-/// five (copper 0.005 -> 0.001, clay 0.012 -> 0.003, sprouts 0.011 ->
-/// 0.004, steel 0.020 -> 0.011, vignetted rust 0.108 -> 0.092) and its
-/// material drift too (0.232 -> 0.227, 0.196 -> 0.192, 0.244 -> 0.239,
-/// 0.311 -> 0.300, 0.259 -> 0.228); the last frame's moved both ways
-/// (copper 0.237 -> 0.207, steel 0.080 -> 0.100). Without the reuse
-/// penalty the favour is whole, as before.
-fn share_factor(e: f32) -> f32 {
+/// At the full favour (1 / (1 - e)), a material held by one spot of the
+/// exemplar (a patch of dark speckle at copper_patinating's left edge)
+/// out-weighed the reuse penalty, and that one spot was pasted again and
+/// again until its family's share was met: three copies stacked down the
+/// output's left edge, where each row's first block meets only the block
+/// above. Faded, a material spread over many spots (copper's teal patina)
+/// is still favoured at its fresh ones. On the time-lapses of
+/// examples/ttf_quality (100 frames, seed 1) the middle frame's
+/// near-verbatim share fell on all five (copper 0.005 -> 0.001, clay 0.012
+/// -> 0.003, sprouts 0.011 -> 0.004, steel 0.020 -> 0.011, vignetted rust
+/// 0.108 -> 0.092) and its material drift too (0.232 -> 0.227, 0.196 ->
+/// 0.192, 0.244 -> 0.239, 0.311 -> 0.300, 0.259 -> 0.228); the last
+/// frame's moved both ways (copper 0.237 -> 0.207, steel 0.080 -> 0.100).
+/// Without the reuse penalty (reuse = 1) the favour is whole, as before.
+fn share_factor(e: f32, reuse: f32) -> f32 {
     if e >= 0.0 {
         1.0 + e
     } else {
-        1.0 / (1.0 - e)
+        1.0 / (1.0 - e / reuse)
     }
 }
 
@@ -1087,10 +1086,7 @@ impl Pass<'_> {
                 // over-use, so the bound never favours it.
                 let excess = if rare { worst } else { usage.excess(sx, sy, &over) };
                 let reuse = 1.0 + self.params.reuse * usage.around(sx, sy);
-                // An under-used material's favour fades with the reuse of
-                // the spot offering it (see share_factor).
-                let e = self.params.families * excess;
-                let material = share_factor(if e < 0.0 { e / reuse } else { e });
+                let material = share_factor(self.params.families * excess, reuse);
                 let penalty = (reuse + self.params.rarity * used) * material;
                 Penalty { factor: penalty, bonus: 1.0 + FIRST_USE * self.params.rarity * fresh, material, rare }
             };
@@ -1489,9 +1485,9 @@ mod tests {
         let over = usage.overuse();
         let (red, blue) = (usage.excess(10, 8, &over), usage.excess(110, 8, &over));
         assert!(red > 0.0 && blue < 0.0, "excess of a red block {red}, of a blue one {blue}");
-        assert!(share_factor(blue) < 1.0 && share_factor(red) > 1.0);
+        assert!(share_factor(blue, 1.0) < 1.0 && share_factor(red, 1.0) > 1.0);
         // Within the slack either way, nothing changes.
-        assert_eq!(share_factor(0.0), 1.0);
+        assert_eq!(share_factor(0.0, 1.0), 1.0);
     }
 
     #[test]

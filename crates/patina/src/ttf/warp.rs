@@ -348,7 +348,7 @@ pub fn seam_aligned(plan: &QuiltPlan, frames: &[Image], jitter: f32, pace: &[f32
         let own = |t: usize, s: usize| {
             let d = s as isize - band as isize;
             if keeps_colour[t * states + s] && -d <= ((t + phase) / END_RAMP) as isize && d <= ((n - 1 - t + phase) / END_RAMP) as isize {
-                (s as f32 - band as f32 - (target.at(t as f32) - t as f32)).abs() / band as f32
+                (d as f32 - (target.at(t as f32) - t as f32)).abs() / band as f32
             } else {
                 f32::INFINITY
             }
