@@ -231,7 +231,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     if pull > 0.0 {
         let cavity = cavities(&relief);
         onset.data_mut().iter_mut().zip(cavity.data()).for_each(|(o, c)| {
-            if *o < texture::NEVER {
+            if *c > 0.0 {
                 *o = (*o * (1.0 - pull * c).powi(2)).max(0.02);
             }
         });

@@ -141,7 +141,9 @@ impl DecayClass {
     /// groove fills as soon as the degree's faint front reaches it) ([`super::cavities`]: grooves, carved letters, the gaps
     /// between a statue's curls, seams): moss and rust collect where water
     /// and dirt stand, so they fill a carved letter before the face around
-    /// it; a flake or a crack has no such preference.
+    /// it, and moss grows in a recess between its clumps too, where the
+    /// face stays bare (its texels there never appear otherwise); a flake
+    /// or a crack has no such preference.
     pub fn cavity_pull(self) -> f32 {
         match self {
             DecayClass::Mossy => 0.85,
@@ -517,41 +519,52 @@ const STONE_FRACTURES: f32 = 0.55;
 /// crack's colour is measured against when it darkens a photo.
 pub const CRACKED_SURFACE: [f32; 3] = [0.72, 0.69, 0.64];
 
-/// Moss: cushions of tiny bumps (cellular noise at 3-4 px: lit yellow-green
-/// tips, dark green gaps) in clumps from warped fBm, darker where a clump
-/// thins out; each cushion is lit from the top left and
-/// shades itself on its lower right; clumps grow outward from their centres.
-/// Between the clumps lies a thin olive felt.
+/// Moss: rounded cushions (warped cells of about 22 px, each a dome lit
+/// from the top left, shaded on its far side and darker in the crevices
+/// between cushions) of fine bright tips (cellular noise at 2-3 px), in
+/// clumps from warped fBm whose cushions flatten towards the clump's
+/// edge. A clump grows outward from its heart cushion by cushion (each
+/// cushion's onset carries its own offset, and its dome's top appears
+/// before its rim), so its outline is lumpy, not a threshold curve.
+/// Between the clumps (about 30% of the texture) the object shows through:
+/// those texels never appear, except in the photo's recesses (see
+/// [`DecayClass::cavity_pull`]). A continuous olive felt there, at
+/// e3688fb, read as a flat layer of paint. The texture alone draws the
+/// gaps as flat moss.
 fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let clump = g.layer(0).warped(x, y, 45.0 * s, 5, 20.0 * s);
-    // The cushion's height falls with the clump field: its slope towards
-    // the light (the field a few pixels up-left) lights or shades it.
-    let towards_light = g.layer(0).warped(x - 3.0 * s, y - 3.0 * s, 45.0 * s, 5, 20.0 * s) - clump;
-    let relief = (1.0 - 2.5 * towards_light).clamp(0.6, 1.25);
-    let cover = smoothstep(-0.25, 0.05, clump);
+    let cover = smoothstep(-0.1, 0.25, clump);
+    // A cushion's dome: its height rises from the cell border inward,
+    // lower where the clump thins out; lit where it rises towards the light.
+    let cushions = g.layer(1);
+    let cell = 22.0 * s;
+    let (wx, wy) = (g.layer(9).fbm(x, y, 8.0, 2, 0.5), g.layer(10).fbm(x, y, 8.0, 2, 0.5));
+    let dome = |x: f32, y: f32| {
+        let c = cushions.worley(x + 8.0 * wx, y + 8.0 * wy, cell);
+        (smoothstep(0.0, 0.5 * cell, c.border()) * (0.2 + 0.8 * cover) * (0.8 + 0.4 * c.id), c.id)
+    };
+    let (height, id) = dome(x, y);
+    let towards_light = height - dome(x - 2.5, y - 2.5).0;
+    let lit = (1.0 + 1.6 * towards_light).clamp(0.55, 1.35);
+    let crevice = 0.7 + 0.3 * smoothstep(0.0, 0.4, height);
     // Tips of two sizes, their size varying across the cushion.
-    let (b1, b2) = (g.layer(1).worley(x, y, 3.0), g.layer(5).worley(x, y, 5.0));
-    let size = 0.8 + 0.4 * g.layer(6).fbm(x, y, 10.0, 2, 0.5);
-    let tip = smoothstep(2.2 * size, 0.2, b1.f1).max(0.8 * smoothstep(3.0 * size, 0.5, b2.f1));
-    let bump = b1;
+    let (b1, b2) = (g.layer(5).worley(x, y, 2.0), g.layer(6).worley(x, y, 3.2));
+    let size = 0.8 + 0.4 * g.layer(7).fbm(x, y, 10.0, 2, 0.5);
+    let tip = smoothstep(1.6 * size, 0.2, b1.f1).max(0.8 * smoothstep(2.4 * size, 0.4, b2.f1));
     let hue = g.layer(2).fbm(x, y, 60.0 * s, 3, 0.5);
-    let yellow = (0.35 * g.style.variant + 0.25 * hue).clamp(0.0, 1.0);
-    let dark = [0.12, 0.16, 0.05];
-    let mid = mix3([0.24, 0.33, 0.07], [0.34, 0.38, 0.09], yellow);
-    let light = mix3([0.48, 0.58, 0.16], [0.60, 0.63, 0.22], yellow);
-    let thick = smoothstep(-0.2, 0.4, clump);
-    // Tips blur together into a fuzz at 1:1: half their contrast, plus fine fibres.
-    let fuzz = g.layer(7).fbm(x, y, 1.5, 2, 0.5);
-    let moss = ramp(&[(0.0, dark), (0.5, mid), (1.0, light)], 0.2 + 0.5 * tip * (0.55 + 0.45 * thick) + 0.1 * bump.id + 0.15 * fuzz);
-    // Between the cushions, a thin olive felt of young moss and algae over
-    // the soil: a near-black brown soil read as holes in the moss.
-    let soil_m = g.layer(3).fbm(x, y, 5.0, 3, 0.5);
-    let soil = [0.25 + 0.05 * soil_m, 0.26 + 0.05 * soil_m, 0.12 + 0.03 * soil_m];
-    let c = mix3(soil, moss.map(|v| v * relief), cover);
-    let ragged = g.layer(4).fbm(x, y, 2.5, 2, 0.5);
-    let onset = 0.5 - 0.55 * clump + 0.14 * ragged;
-    [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
+    let yellow = (0.35 * g.style.variant + 0.3 * hue + 0.25 * (id - 0.5)).clamp(0.0, 1.0);
+    let dark = [0.10, 0.15, 0.04];
+    let mid = mix3([0.30, 0.42, 0.08], [0.42, 0.46, 0.10], yellow);
+    let light = mix3([0.55, 0.68, 0.18], [0.68, 0.72, 0.24], yellow);
+    let fuzz = g.layer(8).fbm(x, y, 1.5, 2, 0.5);
+    let moss = ramp(&[(0.0, dark), (0.5, mid), (1.0, light)], 0.25 + 0.45 * tip + 0.15 * fuzz + 0.15 * height);
+    let c = moss.map(|v| v * lit * crevice);
+    let ragged = g.layer(4).fbm(x, y, 3.0, 2, 0.5);
+    let onset = 0.45 - 0.6 * clump + 0.16 * (id - 0.5) + 0.1 * (1.0 - height) + 0.06 * ragged;
+    // Between the clumps only a recess grows moss (see `cavity_pull`).
+    let onset = if cover > 0.0 { onset.clamp(0.02, 0.95) } else { NEVER };
+    [c[0], c[1], c[2], onset]
 }
 
 #[cfg(test)]
