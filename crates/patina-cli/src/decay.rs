@@ -35,7 +35,8 @@ fn parse_substrate(s: &str) -> std::result::Result<decay::Substrate, String> {
     match s {
         "paint" => Ok(decay::Substrate::Paint),
         "stone" => Ok(decay::Substrate::Stone),
-        _ => Err(format!("unknown substrate '{s}' (expected paint or stone)")),
+        "coated" => Ok(decay::Substrate::Coated),
+        _ => Err(format!("unknown substrate '{s}' (expected paint, stone or coated)")),
     }
 }
 
@@ -169,6 +170,7 @@ pub fn run(args: Args) -> Result<()> {
         p["style"] = json!(decay::Style::draw(args.seed));
     }
     p["transition"] = json!(prepared.transition);
+    p["substrate"] = json!(prepared.substrate);
     p["transition_source"] = json!(match &synthesized {
         Some(FromExemplar { transition: Some(_), .. }) => "exemplar",
         _ => "class",
@@ -239,8 +241,10 @@ pub struct TextureArgs {
     /// Also write the onset channel (the degree at which each texel appears) here.
     #[arg(long)]
     pub onset: Option<PathBuf>,
-    /// What a procedural texture is for: paint (cracks craze into cells) or stone (bare grey stone or plaster:
-    /// a few long fractures that end). `patina decay` picks it from the object's colour.
+    /// What a procedural texture is for: paint (cracks craze into cells; peeling bares primed metal), stone (bare
+    /// grey stone or plaster: a few long fractures that end; a weathered skin spalls off fresher stone) or coated
+    /// (a grey object coated white: fractures as stone, its coat peels in chips). `patina decay` picks it from
+    /// the object's colour and lightness.
     #[arg(long, value_parser = parse_substrate, default_value = "paint")]
     pub substrate: decay::Substrate,
     /// Make the texture (and its onset) tile seamlessly: its left edge continues its right and its top its bottom.

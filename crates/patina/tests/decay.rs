@@ -885,3 +885,42 @@ fn moss_hides_fine_carving_that_rust_shows() {
     // (Part of a 3 px groove's shade is form to the shading estimate and shows under both.)
     assert!(moss < 0.75 * rust, "grooves below the face in L*: {rust} under rust, {moss} under moss");
 }
+
+/// Peeling on an unpainted grey object bares what lies under its skin:
+/// on grey stone under a brighter sky, fresher and paler stone; on an
+/// object coated white (the lightest thing in its scene), a darker body.
+/// Fully decayed, the bared texels' mean L* against the face's.
+#[test]
+fn peeling_bares_paler_stone_on_grey_stone_and_a_darker_body_under_a_white_coat() {
+    let (w, h) = (192usize, 160usize);
+    let mask = Mask::from_fn(w, h, |x, y| (32..160).contains(&x) && (48..150).contains(&y));
+    let full = Image::from_fn(w, h, 1, |_, _, p| p[0] = 1.0);
+    for (face, sky, substrate) in [(0.45, 0.95, Substrate::Stone), (0.85, 0.6, Substrate::Coated)] {
+        let input = Image::from_fn(w, h, 3, |x, y, p| {
+            let v = if mask.get(x, y) {
+                face + 0.02 * value_noise(5, x as f32 / 3.0, y as f32 / 3.0)
+            } else if y < 48 {
+                sky
+            } else {
+                0.3
+            };
+            p.fill(v);
+        });
+        let inputs = Inputs { mask: Some(&mask), degree: Some(&full), ..Default::default() };
+        let prep = decay::prepare(&input, inputs, &DecayParams::new(DecayClass::Peeling), 3).unwrap();
+        assert_eq!(prep.substrate, substrate, "face {face} under a sky of {sky}");
+        let (before, after) = (to_lab(&input), to_lab(&decay::sequence(&prep, 1, 3, None).unwrap()[0].image));
+        let (mut shift, mut n) = (0f32, 0f32);
+        for y in 0..h {
+            for x in (0..w).filter(|&x| mask.get(x, y) && prep.texture.at(x, y, 3) < decay::texture::NEVER) {
+                shift += after.at(x, y, 0) - before.at(x, y, 0);
+                n += 1.0;
+            }
+        }
+        let shift = shift / n;
+        match substrate {
+            Substrate::Stone => assert!(shift > 3.0, "spalled grey stone: bared L* {shift:+} against the face"),
+            _ => assert!(shift < -3.0, "white coat: bared L* {shift:+} against the face"),
+        }
+    }
+}

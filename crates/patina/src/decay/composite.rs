@@ -78,6 +78,12 @@ const ONSET_SOFTNESS: f32 = 0.04;
 /// salt-and-pepper on a lit white statue.
 const MIN_CONTRAST: f32 = 0.7;
 
+/// The most the colour transfer scales a texture's a* or b* spread: a
+/// near-neutral texture on a photo whose chroma spread is its shading's
+/// colour cast (a dim white statue: b* spread 4.2) had its faint grain
+/// scaled into blue specks.
+const MAX_CHROMA_GAIN: f32 = 2.0;
+
 /// The blend weight of a texel with onset `onset` at degree `degree`
 /// (0 for texels that never appear).
 #[inline]
@@ -122,7 +128,7 @@ pub fn transfer_colour(texture_lab: &mut Image, onset: &Image, photo_lab: &Image
             if c == 0 {
                 s.clamp(MIN_CONTRAST, 1.0)
             } else {
-                s
+                s.min(MAX_CHROMA_GAIN)
             }
         })
         .collect();

@@ -73,13 +73,26 @@ impl DecayParams {
     }
 }
 
-/// How the material under a peeled surface scale differs from the
-/// surface of an unpainted object, as (L*, b*) shifts: the body under a
-/// coat of limewash or a weathered skin is darker and warmer (raw
-/// plaster, fresh sandstone), so the flakes read as a layer gone, not as
-/// a stain. Tried: lighter (fresher) stone under a grey object, +6 L*; on
-/// a dimly lit white statue it was invisible.
-const UNDER_THE_SCALE: [f32; 2] = [-10.0, 5.0];
+/// How the material under a peeled skin differs from the surface of an
+/// unpainted object, as (L*, b*) shifts: weathered stone spalls to
+/// fresher, paler stone ([`Substrate::Stone`]) ...
+const FRESH_STONE: [f32; 2] = [8.0, 1.0];
+/// ... and a white coat peels off a darker, warmer body (raw plaster or
+/// stone) ([`Substrate::Coated`], and paint of low chroma).
+const UNDER_A_COAT: [f32; 2] = [-10.0, 5.0];
+
+/// Whether the object of `photo_lab` inside `mask` is coated white: its
+/// brightest parts (its 95th-percentile L*) are at least the scene's
+/// white (the whole photo's 95th percentile). One shift for both kinds
+/// of grey object read wrongly on one of them: darker and warmer on a
+/// grey gravestone under a bright sky (ratio 0.93) as brown stains, paler
+/// on a white Buddha cast (ratio 1.09) as white frosting.
+pub fn is_coated_white(photo_lab: &Image, mask: &Mask) -> bool {
+    let mut scene: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[0]).collect();
+    let mut object: Vec<f32> = photo_lab.data().chunks_exact(3).zip(mask.bits()).filter(|(_, &m)| m).map(|(p, _)| p[0]).collect();
+    let (white, top) = (quantile(&mut scene, 0.95).unwrap_or(100.0), quantile(&mut object, 0.95).unwrap_or(0.0));
+    top >= white
+}
 
 /// The `q` quantile of `values` (the value at index floor((n - 1) q) in
 /// sorted order; `values` is reordered), or `None` when there are none.
@@ -125,6 +138,8 @@ pub struct Prepared {
     photo_lab: Image,
     /// The object mask.
     pub mask: Mask,
+    /// What the object is taken to be made of (its texture's substrate).
+    pub substrate: Substrate,
     /// Pixels by which the mask was widened past the object ([`Inputs::mask_pad`]).
     pub mask_pad: usize,
     /// The decay texture as made (sRGB + onset), before colour transfer.
@@ -202,7 +217,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         None => Mask::filled(w, h, true),
     };
     let photo_lab = to_lab(photo);
-    let substrate = texture::Substrate::of_chroma(composite::mean_chroma(&photo_lab, &mask));
+    let substrate = Substrate::of(composite::mean_chroma(&photo_lab, &mask), is_coated_white(&photo_lab, &mask));
     let texture = match inputs.texture {
         Some(t) => {
             same("texture", t.size())?;
@@ -247,7 +262,8 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         if strength > 0.0 {
             composite::transfer_colour(&mut texture_lab, &onset, &photo_lab, &mask, strength);
             if params.class == DecayClass::Peeling {
-                let shift = UNDER_THE_SCALE.map(|v| v * strength);
+                let under = if substrate == Substrate::Stone { FRESH_STONE } else { UNDER_A_COAT };
+                let shift = under.map(|v| v * strength);
                 texture_lab.data_mut().chunks_exact_mut(3).for_each(|px| {
                     px[0] = (px[0] + shift[0]).clamp(0.0, 100.0);
                     px[2] += shift[1];
@@ -288,6 +304,7 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         focus,
         rate,
         transition: inputs.transition.unwrap_or_else(|| params.class.transition()),
+        substrate,
         light,
         relief: params.class.relief(substrate),
         params: params.clone(),

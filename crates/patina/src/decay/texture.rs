@@ -102,7 +102,7 @@ impl DecayClass {
     /// one read as flat stains.
     pub fn relief(self, substrate: Substrate) -> Relief {
         match self {
-            DecayClass::Peeling if substrate == Substrate::Stone => Relief { height: -2.0, softness: 0.5, strength: 1.1, shadow: 0.65 },
+            DecayClass::Peeling if substrate.is_stony() => Relief { height: -2.0, softness: 0.5, strength: 1.1, shadow: 0.65 },
             DecayClass::Peeling => Relief { height: -3.0, softness: 0.7, strength: 1.3, shadow: 0.75 },
             DecayClass::Cracked => Relief { height: -1.6, softness: 0.6, strength: 1.0, shadow: 0.55 },
             DecayClass::Rust => Relief { height: 0.8, softness: 1.2, strength: 0.5, shadow: 0.25 },
@@ -299,21 +299,33 @@ pub enum Substrate {
     Paint,
     /// Unpainted grey stone or plaster (mean Lab chroma under
     /// [`STONE_CHROMA`]): cracks are a few long, wider fractures that end,
-    /// not crazing (a blind reviewer: "crazing is wrong for slate").
+    /// not crazing (a blind reviewer: "crazing is wrong for slate"); a
+    /// weathered skin spalls off, baring rough, fresher stone.
     Stone,
+    /// A grey object coated white (limewash, or paint on a plaster cast):
+    /// it cracks as [`Substrate::Stone`] does, and its coat peels as
+    /// paint does, in chips, baring a darker, warmer body.
+    Coated,
 }
 
 /// Mean Lab chroma under which an object counts as bare stone ([`Substrate::Stone`]).
 pub const STONE_CHROMA: f32 = 10.0;
 
 impl Substrate {
-    /// The substrate of an object whose mean Lab chroma is `chroma`.
-    pub fn of_chroma(chroma: f32) -> Self {
-        if chroma < STONE_CHROMA {
-            Substrate::Stone
-        } else {
-            Substrate::Paint
+    /// The substrate of an object whose mean Lab chroma is `chroma`:
+    /// under [`STONE_CHROMA`] it is stone, or [`Substrate::Coated`] when
+    /// `white` (see [`super::is_coated_white`]).
+    pub fn of(chroma: f32, white: bool) -> Self {
+        match (chroma < STONE_CHROMA, white) {
+            (false, _) => Substrate::Paint,
+            (true, false) => Substrate::Stone,
+            (true, true) => Substrate::Coated,
         }
+    }
+
+    /// Whether the object is unpainted stone or plaster, coated or not.
+    pub fn is_stony(self) -> bool {
+        self != Substrate::Paint
     }
 }
 
@@ -400,8 +412,10 @@ fn rust(g: &Generator, x: f32, y: f32) -> [f32; 4] {
 /// come off in turn) and then the substrate: here bare primed metal,
 /// a dark grey primer mottled with rust stains, rustier where it was bared
 /// first (the lowest onsets), and pitted grain; on
-/// an unpainted (grey) object compositing moves it to the object's own
-/// colour (see [`DecayClass::colour_transfer`]). The step at each border,
+/// a grey object coated white ([`Substrate::Coated`]) compositing moves it
+/// to the object's own colour, darker and warmer (see
+/// [`DecayClass::colour_transfer`]); on bare stone ([`Substrate::Stone`])
+/// the bared texel is a spalled fracture surface instead ([`spalled`]). The step at each border,
 /// its lit lip and cast shadow, comes from the layer relief
 /// ([`super::layer`]), not from the texture. The paint between patches
 /// never appears: it is the photo's own.
@@ -419,6 +433,10 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
         // is), drawn as a cream coat so the texture alone shows its flakes.
         let tone = 0.93 + 0.05 * g.layer(9).fbm(x, y, 40.0 * s, 3, 0.5) + 0.03 * grain;
         return [0.80 * tone, 0.77 * tone, 0.70 * tone, NEVER];
+    }
+    if g.substrate == Substrate::Stone {
+        let c = spalled(g, x, y, onset, grain);
+        return [c[0], c[1], c[2], onset.clamp(0.02, 0.95)];
     }
     let mottle = g.layer(3).fbm(x, y, 16.0, 4, 0.6);
     let stain = smoothstep(0.1, 0.45, g.layer(4).fbm(x, y, 22.0 * s, 4, 0.55));
@@ -455,6 +473,25 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     [c[0], c[1], c[2], onset.clamp(0.02, 0.95)]
 }
 
+/// What [`peeling`] bares on unpainted stone or plaster, where a weathered
+/// skin spalls: a rough fracture surface of grains 1-3 px across, each
+/// lit or shaded, with small pits and a faint mottle; the patch's heart,
+/// bared first, lies a sheet deeper and is rougher. Neutral grey:
+/// compositing moves it to the object's own colour. The primed metal
+/// and rust stains of painted objects, moved to a grey stone's colours,
+/// read as brown stains on a gravestone (blind review, stop 60).
+fn spalled(g: &Generator, x: f32, y: f32, onset: f32, grain: f32) -> [f32; 3] {
+    let s = g.style.scale;
+    let deep = smoothstep(0.35, 0.15, onset);
+    let grains = g.layer(12).worley(x, y, 2.5);
+    let lit = smoothstep(1.4, 0.2, grains.f1) * (grains.id - 0.5);
+    let pits = g.layer(5).worley(x, y, 9.0);
+    let pit = smoothstep(1.8, 0.5, pits.f1) * (pits.id < 0.12) as u8 as f32;
+    let mottle = g.layer(3).fbm(x, y, 20.0 * s, 3, 0.55);
+    let tone = 0.5 * (1.0 - 0.06 * deep) + 0.04 * mottle + (0.16 + 0.08 * deep) * lit + 0.06 * grain - 0.15 * pit;
+    [1.02 * tone, tone, 0.97 * tone]
+}
+
 /// Onset above which [`peeling`]'s bared texel still shows the older coat.
 const UNDERCOAT_FROM: f32 = 0.3;
 
@@ -471,7 +508,7 @@ const UNDERCOATS: [[f32; 3]; 3] = [[0.50, 0.24, 0.16], [0.56, 0.56, 0.54], [0.78
 /// relief into washed cells).
 fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     // Stone fractures: cells 2.2 times larger, more warped, wider, open.
-    let stone = g.substrate == Substrate::Stone;
+    let stone = g.substrate.is_stony();
     let s = g.style.scale * if stone { 2.2 } else { 1.0 };
     let warp = if stone { 10.0 } else { 7.0 };
     let mut wx = x + warp * s * g.layer(0).fbm(x, y, 30.0 * s, 3, 0.5);
