@@ -882,8 +882,10 @@ fn moss_hides_fine_carving_that_rust_shows() {
         sums[1] / counts[1] - sums[0] / counts[0]
     };
     let (rust, moss) = (depth(DecayClass::Rust), depth(DecayClass::Mossy));
-    // (Part of a 3 px groove's shade is form to the shading estimate and shows under both.)
-    assert!(moss < 0.75 * rust, "grooves below the face in L*: {rust} under rust, {moss} under moss");
+    // (Part of a 3 px groove's shade is form to the shading estimate; moss
+    // takes the form smoothed over its thickness: 2.3 L* against rust's 6.0,
+    // 4.2 with the form as estimated.)
+    assert!(moss < 0.5 * rust, "grooves below the face in L*: {rust} under rust, {moss} under moss");
 }
 
 /// Peeling on an unpainted grey object bares what lies under its skin:

@@ -136,6 +136,17 @@ impl DecayClass {
         }
     }
 
+    /// How thick the decay layer is, in pixels: detail of the form finer
+    /// than this does not light it ([`super::shading::under_a_layer`]). A
+    /// moss cushion hides carving a few pixels wide; rust, a flake's floor
+    /// and a crack lie on the surface itself.
+    pub fn thickness(self) -> f32 {
+        match self {
+            DecayClass::Mossy => 5.0,
+            DecayClass::Rust | DecayClass::Peeling | DecayClass::Cracked => 0.0,
+        }
+    }
+
     /// How much earlier a texel appears in the photo's deepest
     /// recesses (its onset is scaled by (1 - pull x cavity)^2, so a deep
     /// groove fills as soon as the degree's faint front reaches it) ([`super::cavities`]: grooves, carved letters, the gaps
