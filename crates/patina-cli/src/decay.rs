@@ -66,7 +66,7 @@ pub struct Args {
     /// Output folder.
     #[arg(short, long)]
     pub out: PathBuf,
-    /// Number of frames. Frame 0 is the clean photo and the next frames grow the initial degree map's patches from their first texels, one patch after another (the largest first), then spread them (eqs. 4-7); a painted degree map, or a single frame, is shown whole from frame 0.
+    /// Number of frames. Frame 0 is the clean photo and the next frames grow the initial degree map's patches from their first texels, then spread them (eqs. 4-7); a painted degree map, or a single frame, is shown whole from frame 0.
     #[arg(long, default_value_t = 8, value_parser = |s: &str| crate::flags::count(s, 1, 1000))]
     pub frames: usize,
     /// Random seed: texture, degree map and growth; the same inputs and seed give the same bytes.

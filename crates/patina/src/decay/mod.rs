@@ -317,15 +317,13 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
 /// factor rising from 0, so each patch shows its lowest onsets where its
 /// degree is highest first) and then run diffusion and growth, one
 /// simulated frame per frame, paced so the visible decay grows evenly.
-/// The patches start one after another ([`degree::births`]), the heaviest
-/// first. A painted map is the user's frame 0 and is shown as painted; so
-/// is any map when only one frame is asked for.
+/// A painted map is the user's frame 0 and is shown as painted; so is any
+/// map when only one frame is asked for.
 ///
 /// Not in the paper, whose first frame shows the initial map whole: a
 /// blind reviewer read patches that arrive full-size as "patches appear
-/// nearly full-size in frame 1", seeds already showing in frame 0 as a
-/// sequence that does not start from the photo, and every patch starting
-/// in frame 1 as "dozens of spots at once".
+/// nearly full-size in frame 1", and seeds already showing in frame 0 as
+/// a sequence that does not start from the photo.
 pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Progress>) -> Result<Vec<Frame>> {
     if frames == 0 {
         return Err(Error::invalid("--frames must be at least 1"));
