@@ -926,39 +926,3 @@ fn peeling_bares_paler_stone_on_grey_stone_and_a_darker_body_under_a_white_coat(
         }
     }
 }
-
-/// Algorithm 1's patches start one after another: the first frame shows
-/// decay in at most half of the initial map's patches (the paper's
-/// sequence starts them all at once), and by the last frame every patch
-/// shows. Each pixel's degree still only grows.
-#[test]
-fn the_patches_start_one_after_another() {
-    let (w, h) = (320usize, 256usize);
-    let mask = Mask::from_fn(w, h, |x, y| (16..304).contains(&x) && (16..240).contains(&y));
-    let input = Image::from_fn(w, h, 3, |x, y, p| p.fill(0.5 + 0.05 * value_noise(3, x as f32 / 4.0, y as f32 / 4.0)));
-    let mut params = DecayParams::new(DecayClass::Rust);
-    params.continuity = 0.03;
-    let prep = decay::prepare(&input, Inputs { mask: Some(&mask), ..Default::default() }, &params, 4).unwrap();
-    let (label, n) = patina::image::region::components(&prep.degree.data().iter().map(|&d| d > 0.0).collect::<Vec<_>>(), w, h);
-    // Patches of at least 30 px (the ragged outlines leave specks beside them).
-    let mut size = vec![0usize; n];
-    label.iter().filter(|&&l| l != u32::MAX).for_each(|&l| size[l as usize] += 1);
-    let patches = size.iter().filter(|&&s| s >= 30).count();
-    assert!(patches >= 6, "the test needs several patches, got {patches}");
-    let frames = decay::sequence(&prep, 8, 4, None).unwrap();
-    let started = |k: usize| {
-        let mut on = vec![false; n];
-        for (&l, &d) in label.iter().zip(frames[k].degree.data()) {
-            if l != u32::MAX && d > 0.0 {
-                on[l as usize] = true;
-            }
-        }
-        (0..n).filter(|&p| on[p] && size[p] >= 30).count()
-    };
-    assert!(started(1) >= 1 && 2 * started(1) <= patches, "frame 1 grows {} of {patches} patches", started(1));
-    assert_eq!(started(7), patches);
-    for k in 1..8 {
-        let grows = frames[k].degree.data().iter().zip(frames[k - 1].degree.data()).all(|(a, b)| a >= b);
-        assert!(grows, "a pixel's degree fell between frames {} and {k}", k - 1);
-    }
-}

@@ -2,7 +2,7 @@
 //! (Hao et al. 2023, sections III-C2 and III-C4).
 
 use super::texture::DecayClass;
-use crate::image::filter::{gaussian_blur, weighted_blur};
+use crate::image::filter::gaussian_blur;
 use crate::image::noise::{smoothstep, Layer};
 use crate::image::resample::{resize, Filter};
 use crate::image::{Image, Mask};
@@ -302,55 +302,6 @@ impl<'a> Diffuser<'a> {
         });
     }
 }
-
-/// Share of the simulated time over which [`births`] spreads the patches' starts.
-pub const BIRTH_SPAN: f32 = 0.7;
-
-/// When each part of `initial` (Algorithm 1's map) starts to grow, as a
-/// delay per pixel in simulated frames, from 0 to `span`: each patch (a
-/// connected component of the map) is born at its own time, the heaviest
-/// (the sum of its degree) first and the rest half by weight rank, half
-/// at random (`seed`), so a sequence starts from one colony and others
-/// join it. The paper's sequence grows every patch from its first frame,
-/// which a blind reviewer read as "dozens of spots at once". The delays
-/// are blended by a normalised convolution over the map (a Gaussian of
-/// `blend` pixels, weighted by the degree), so the
-/// time a pixel shows changes smoothly between patches and no seam
-/// shows where an older colony meets a younger one. All 0 for a map of
-/// fewer than two patches.
-pub fn births(initial: &Image, span: f32, blend: f32, seed: u64) -> Image {
-    let (w, h) = initial.size();
-    let bits: Vec<bool> = initial.data().iter().map(|&d| d > 0.0).collect();
-    let (label, n) = crate::image::region::components(&bits, w, h);
-    if n < 2 || span <= 0.0 {
-        return Image::new(w, h, 1);
-    }
-    let mut mass = vec![0f64; n];
-    for (&l, &d) in label.iter().zip(initial.data()) {
-        if l != u32::MAX {
-            mass[l as usize] += f64::from(d);
-        }
-    }
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| mass[b].total_cmp(&mass[a]).then(a.cmp(&b)));
-    let mut birth = vec![0f32; n];
-    for (rank, &p) in order.iter().enumerate().skip(1) {
-        let chance = (rng::derive(seed, &[0xb127, p as u64]) >> 40) as f32 / (1u64 << 24) as f32;
-        birth[p] = span * (0.5 * rank as f32 / (n - 1) as f32 + 0.5 * chance);
-    }
-    let at = Image::from_data(w, h, 1, label.iter().map(|&l| if l == u32::MAX { 0.0 } else { birth[l as usize] }).collect())
-        .expect("one value per pixel");
-    let (sum, weight) = weighted_blur(&at, initial, blend);
-    let total: f64 = mass.iter().sum();
-    let mean = (birth.iter().zip(&mass).map(|(&b, &m)| f64::from(b) * m).sum::<f64>() / total.max(1e-9)) as f32;
-    let data =
-        sum.data().iter().zip(weight.data()).map(|(&s, &k)| ((s + BLEND_PRIOR * mean) / (k + BLEND_PRIOR)).clamp(0.0, span)).collect();
-    Image::from_data(w, h, 1, data).expect("one value per pixel")
-}
-
-/// The weight of the patches' mean delay in [`births`]'s blend, so far
-/// from every patch the delay is their mean.
-const BLEND_PRIOR: f32 = 1e-3;
 
 #[cfg(test)]
 mod tests {

@@ -342,14 +342,6 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
         diffuser.step(&mut d, seed, k as u64);
         simulated.push(d);
     }
-    // Algorithm 1's patches start one after another (a painted map is shown as painted).
-    let delay = if frames > 1 && prep.draws > 0 {
-        // Blended over half of Algorithm 1's cell, within a patch of average size.
-        let blend = 0.5 * prep.params.continuity * prep.degree.width().max(prep.degree.height()) as f32;
-        degree::births(&prep.degree, degree::BIRTH_SPAN * (simulated.len() - 1) as f32, blend, seed)
-    } else {
-        Image::new(prep.degree.width(), prep.degree.height(), 1)
-    };
     let stain = prep.transition.field(prep.photo.width(), prep.photo.height(), seed);
     let coverage = composite::matted_coverage(&prep.mask, prep.mask_pad, &prep.photo_lab);
     let ends = (
@@ -358,7 +350,7 @@ pub fn sequence(prep: &Prepared, frames: usize, seed: u64, progress: Option<Prog
     );
     let mut out = Vec::with_capacity(frames);
     for k in 0..frames {
-        let degree = paced(&simulated, &delay, (k, frames), ends, &prep.onset, &prep.mask);
+        let degree = paced(&simulated, (k, frames), ends, &prep.onset, &prep.mask);
         let layers = composite::Layers {
             texture_lab: &prep.texture_lab,
             onset: &prep.onset,
@@ -401,30 +393,29 @@ fn mean_weight(degrees: impl Iterator<Item = f32>, onset: &Image, mask: &Mask) -
 /// evenly from the first simulated map's to the last's. Diffusion and
 /// growth spread the degree fast at first and then saturate (99% of the
 /// mask by frame 3 of 8), while what shows follows the texture's onsets;
-/// so frame k shows the simulation at the time T whose visible share is
-/// k/(K-1) of the way. Each pixel shows its own time, T less its `delay`
-/// (see [`degree::births`]), between 0 and the last map, interpolating
-/// between consecutive simulated maps; T runs to the last map plus the
-/// longest delay, so the last frame shows the last map whole. Each pixel
-/// still only grows, as the simulated maps do.
-fn paced(simulated: &[Image], delay: &Image, (k, frames): (usize, usize), (v0, v1): (f64, f64), onset: &Image, mask: &Mask) -> Image {
+/// so frame k shows the simulation at the fractional time whose visible
+/// share is k/(K-1) of the way, interpolating between consecutive
+/// simulated maps. Each pixel still only grows, as the simulated maps do.
+fn paced(simulated: &[Image], (k, frames): (usize, usize), (v0, v1): (f64, f64), onset: &Image, mask: &Mask) -> Image {
     let last = simulated.len() - 1;
     if last == 0 || k == 0 || k + 1 >= frames {
         return simulated[if k == 0 { 0 } else { last }].clone();
     }
-    // Pixel p's degree at time t: between maps i and i + 1, with weight w on the later.
-    let at = |t: f64, p: usize| {
-        let f = (t - f64::from(delay.data()[p])).clamp(0.0, last as f64);
+    // Simulated time f: between maps i and i + 1, with weight w on the later.
+    let split = |f: f64| {
         let i = (f.floor() as usize).min(last - 1);
-        let (x, y) = (simulated[i].data()[p], simulated[i + 1].data()[p]);
-        x + (f - i as f64) as f32 * (y - x)
+        (i, (f - i as f64).clamp(0.0, 1.0) as f32)
     };
-    let pixels = simulated[0].data().len();
-    let lead = delay.data().iter().fold(0f32, |a, &b| a.max(b));
+    let share_at = |f: f64| {
+        let (i, w) = split(f);
+        let between = simulated[i].data().iter().zip(simulated[i + 1].data()).map(|(x, y)| x + w * (y - x));
+        mean_weight(between, onset, mask)
+    };
     let target = v0 + (v1 - v0) * k as f64 / (frames - 1) as f64;
-    let (_, hi) = bisect((0.0, last as f64 + f64::from(lead)), |t| mean_weight((0..pixels).map(|p| at(t, p)), onset, mask) < target);
-    let mut d = simulated[0].clone();
-    d.data_mut().iter_mut().enumerate().for_each(|(p, v)| *v = at(hi, p));
+    let (_, hi) = bisect((0.0, last as f64), |f| share_at(f) < target);
+    let (i, w) = split(hi);
+    let mut d = simulated[i].clone();
+    d.data_mut().iter_mut().zip(simulated[i + 1].data()).for_each(|(x, y)| *x += w * (y - *x));
     d
 }
 
