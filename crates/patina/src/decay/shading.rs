@@ -148,11 +148,6 @@ pub fn with_gloss(shading: &Image, mask: &Mask, gloss: f32) -> Image {
     out
 }
 
-/// Guided-filter passes. The first is guided by the log luminance itself;
-/// each later one by the previous result (rolling guidance, Zhang et al.
-/// 2014), which removes texture the first pass only damped.
-const PASSES: usize = 3;
-
 /// `shading` smoothed over `sigma` pixels within `mask` (a normalised
 /// convolution of its log, so the ground does not bleed in at the
 /// outline): the form a layer `sigma` thick lies on. The edge-aware
@@ -163,13 +158,16 @@ pub fn under_a_layer(shading: &Image, mask: &Mask, sigma: f32) -> Image {
         return shading.clone();
     }
     let log = shading.map(|s| s.max(1e-4).ln());
-    let weight = Image::from_data(mask.width(), mask.height(), 1, mask.bits().iter().map(|&m| m as u8 as f32).collect())
-        .expect("one value per pixel");
-    let (sum, held) = weighted_blur(&log, &weight, sigma);
+    let (sum, held) = weighted_blur(&log, &mask.to_image(), sigma);
     let data =
         sum.data().iter().zip(held.data()).zip(mask.bits()).map(|((&v, &k), &m)| if m && k > 1e-6 { (v / k).exp() } else { 1.0 }).collect();
     Image::from_data(shading.width(), shading.height(), 1, data).expect("one value per pixel")
 }
+
+/// Guided-filter passes. The first is guided by the log luminance itself;
+/// each later one by the previous result (rolling guidance, Zhang et al.
+/// 2014), which removes texture the first pass only damped.
+const PASSES: usize = 3;
 
 /// One masked guided-filter pass: smooth `input` under `guide` with box
 /// windows of radius `r` over mask pixels only.
