@@ -462,17 +462,24 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     // onsets, at a patch's fringe) still carry it, chipped in its own
     // cells; the metal shows where the patch opened first.
     let chips = g.layer(11);
-    let coated = |id: f32| (onset + 0.16 * (id - 0.5) > UNDERCOAT_FROM) as u8 as f32;
+    let coated = |onset: f32, id: f32| (onset + 0.16 * (id - 0.5) > UNDERCOAT_FROM) as u8 as f32;
     let chip = chips.worley(x, y, 5.0 * s);
-    // A chip's border is anti-aliased: 4 samples a quarter pixel apart
-    // where it passes within a pixel.
-    let coat_share = if chip.border() < 1.0 {
+    // The coat's edge follows the chips' and the onset cells' borders; it
+    // is anti-aliased by 4 samples a quarter pixel apart where any of them
+    // passes within a pixel (only the chips' were: the others stair-stepped
+    // at 1:1, "like an enlarged low-resolution mask").
+    let coat_share = if chip.border().min(big.border()).min(small.border()) < 1.0 {
         0.25 * [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)]
             .iter()
-            .map(|(dx, dy)| coated(chips.worley(x + dx, y + dy, 5.0 * s).id))
+            .map(|(dx, dy)| {
+                let (bx, by) = (x + dx, y + dy);
+                let ids = (g.layer(1).worley(bx, by, 8.0 * s).id, g.layer(6).worley(bx, by, 3.5).id);
+                let onset = onset + 0.22 * (ids.0 - big.id) + 0.1 * (ids.1 - small.id);
+                coated(onset, chips.worley(bx, by, 5.0 * s).id)
+            })
             .sum::<f32>()
     } else {
-        coated(chip.id)
+        coated(onset, chip.id)
     };
     if coat_share > 0.0 {
         let coat = UNDERCOATS[((g.style.variant * UNDERCOATS.len() as f32) as usize).min(UNDERCOATS.len() - 1)];
@@ -507,8 +514,10 @@ fn spalled(g: &Generator, x: f32, y: f32, onset: f32, grain: f32) -> [f32; 3] {
 const UNDERCOAT_FROM: f32 = 0.3;
 
 /// The older coats under [`peeling`]'s paint (sRGB), one per style
-/// variant: red-oxide primer, grey primer, an old cream coat.
-const UNDERCOATS: [[f32; 3]; 3] = [[0.50, 0.24, 0.16], [0.56, 0.56, 0.54], [0.78, 0.75, 0.66]];
+/// variant: red-oxide primer, a mid-grey primer (at 0.56 it matched a
+/// sidewalk, and where it reached a hydrant's outline the outline
+/// vanished), an old cream coat.
+const UNDERCOATS: [[f32; 3]; 3] = [[0.50, 0.24, 0.16], [0.46, 0.46, 0.45], [0.78, 0.75, 0.66]];
 
 /// Cracked paint or plaster: a warped cellular crack network (exact
 /// Voronoi edges), large cells split by a finer network in places, crack
