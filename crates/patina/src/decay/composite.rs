@@ -171,6 +171,13 @@ const WHITE_ALBEDO: f32 = 0.8;
 /// The darkest exposure [`adapt_to_scene`] assumes (a third of the texture's own light).
 const MIN_EXPOSURE: f32 = 0.33;
 
+/// The L* of the scene's white in `photo_lab`: its [`SCENE_QUANTILE`]
+/// lightness (100 for an empty photo).
+pub fn scene_white(photo_lab: &Image) -> f32 {
+    let mut lightness: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[0]).collect();
+    super::quantile(&mut lightness, SCENE_QUANTILE).unwrap_or(100.0)
+}
+
 /// Adapt a decay texture's own colours (Lab, in place) to the photo's
 /// light: the texture is a material seen under bright neutral light with
 /// white at 1. Its exposure is scaled to the photo's (the photo's
@@ -191,8 +198,7 @@ pub fn adapt_to_scene(texture_lab: &mut Image, photo_lab: &Image) {
     // taken as a surface of albedo WHITE_ALBEDO; the texture, drawn with
     // white at 1, is scaled to it in linear light: L* -> k^(1/3) (L* + 16) - 16,
     // a*b* -> k^(1/3) a*b*.
-    let mut lightness: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[0]).collect();
-    let white = super::quantile(&mut lightness, SCENE_QUANTILE).unwrap_or(100.0);
+    let white = scene_white(photo_lab);
     let exposure = (((white + 16.0) / 116.0).powi(3) / WHITE_ALBEDO).clamp(MIN_EXPOSURE, 1.0).cbrt();
     texture_lab.data_mut().par_chunks_mut(3).for_each(|px| {
         px[0] = exposure * (px[0] + 16.0) - 16.0;

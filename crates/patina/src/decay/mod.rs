@@ -83,15 +83,13 @@ const UNDER_A_COAT: [f32; 2] = [-10.0, 5.0];
 
 /// Whether the object of `photo_lab` inside `mask` is coated white: its
 /// brightest parts (its 95th-percentile L*) are at least the scene's
-/// white (the whole photo's 95th percentile). One shift for both kinds
+/// white ([`composite::scene_white`], the whole photo's 95th percentile). One shift for both kinds
 /// of grey object read wrongly on one of them: darker and warmer on a
 /// grey gravestone under a bright sky (ratio 0.93) as brown stains, paler
 /// on a white Buddha cast (ratio 1.09) as white frosting.
 pub fn is_coated_white(photo_lab: &Image, mask: &Mask) -> bool {
-    let mut scene: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[0]).collect();
     let mut object: Vec<f32> = photo_lab.data().chunks_exact(3).zip(mask.bits()).filter(|(_, &m)| m).map(|(p, _)| p[0]).collect();
-    let (white, top) = (quantile(&mut scene, 0.95).unwrap_or(100.0), quantile(&mut object, 0.95).unwrap_or(0.0));
-    top >= white
+    quantile(&mut object, 0.95).unwrap_or(0.0) >= composite::scene_white(photo_lab)
 }
 
 /// The `q` quantile of `values` (the value at index floor((n - 1) q) in

@@ -435,7 +435,9 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     // Mildly elongated along the grain; a strong stretch read as streaks.
     let (layer, u, v) = g.along_grain(0, x, y, 0.5 + 0.5 * g.style.stretch);
     let patch = layer.warped(u, v, 70.0 * s, 5, 30.0 * s);
-    let (big, small) = (g.layer(1).worley(x, y, 8.0 * s), g.layer(6).worley(x, y, 3.5));
+    // Two layers of cells offset each chip's onset (their ids weigh 0.22 and 0.1).
+    let cells = |x: f32, y: f32| (g.layer(1).worley(x, y, 8.0 * s), g.layer(6).worley(x, y, 3.5));
+    let (big, small) = cells(x, y);
     let ragged = g.layer(7).fbm(x, y, 2.0, 2, 0.5);
     let onset = 0.45 - 1.1 * patch + 0.22 * (big.id - 0.5) + 0.1 * (small.id - 0.5) + 0.04 * ragged;
     let grain = g.layer(2).white(x as i32, y as i32) - 0.5;
@@ -473,8 +475,8 @@ fn peeling(g: &Generator, x: f32, y: f32) -> [f32; 4] {
             .iter()
             .map(|(dx, dy)| {
                 let (bx, by) = (x + dx, y + dy);
-                let ids = (g.layer(1).worley(bx, by, 8.0 * s).id, g.layer(6).worley(bx, by, 3.5).id);
-                let onset = onset + 0.22 * (ids.0 - big.id) + 0.1 * (ids.1 - small.id);
+                let (b, m) = cells(bx, by);
+                let onset = onset + 0.22 * (b.id - big.id) + 0.1 * (m.id - small.id);
                 coated(onset, chips.worley(bx, by, 5.0 * s).id)
             })
             .sum::<f32>()
