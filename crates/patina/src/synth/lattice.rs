@@ -25,9 +25,9 @@
 //! fits, because a block copied k periods away from its neighbour's
 //! source drifts by k times the period's error.
 //!
-//! A period that changes across the exemplar (a structure seen in
-//! perspective) is dropped: no one shift keeps its blocks in phase
-//! ([`DRIFT`]).
+//! [`Lattice::detect_steady`] also drops a period that changes across the
+//! exemplar (a structure seen in perspective): no one shift keeps blocks
+//! copied from different parts of it in phase ([`DRIFT`]).
 //!
 //! Stochastic textures (gravel, cracked paint, rust) have none, and
 //! synthesis runs unchanged on them.
@@ -149,6 +149,19 @@ impl Lattice {
     /// Detect the regular structure of `img` (channels weighted by
     /// `weights`, as the synthesis compares them); `None` = stochastic.
     pub fn detect(img: &Image, weights: &[f32]) -> Option<Lattice> {
+        Self::detect_with(img, weights, false)
+    }
+
+    /// [`Lattice::detect`] without the periods that drift across the
+    /// exemplar ([`DRIFT`]): only what one shift keeps in phase
+    /// everywhere, which is what quilting aligns its blocks on. (The
+    /// weathering's tile template takes the drifting periods too: its
+    /// median over tiles in perspective is checked for sharpness there.)
+    pub fn detect_steady(img: &Image, weights: &[f32]) -> Option<Lattice> {
+        Self::detect_with(img, weights, true)
+    }
+
+    fn detect_with(img: &Image, weights: &[f32], steady: bool) -> Option<Lattice> {
         let mut analysed = img.clone();
         let mut scale = 1.0f32;
         while analysed.width().max(analysed.height()) > MAX_SIDE {
@@ -163,7 +176,7 @@ impl Lattice {
             Some(along) => vec![stripe_period(&corr, along)?],
             None => grid_periods(&corr)?.into_iter().filter(|&v| regular(|x, y| corr.sample(x, y), v, &corr)).collect(),
         };
-        let periods: Vec<[f32; 2]> = periods.into_iter().filter(|&v| !drifts(&corr, v)).collect();
+        let periods: Vec<[f32; 2]> = periods.into_iter().filter(|&v| !steady || !drifts(&corr, v)).collect();
         if periods.is_empty() {
             return None;
         }
@@ -495,12 +508,13 @@ mod tests {
                 p[0] = if across < 0.12 { 0.1 } else { 0.45 + 0.25 * (across - 0.5).abs() } + grain[y * 240 + x];
             })
         };
-        let upright = Lattice::detect(&boards(23.0, 23.0), &[1.0]).expect("boards of one width");
+        let upright = Lattice::detect_steady(&boards(23.0, 23.0), &[1.0]).expect("boards of one width");
         assert!((upright.periods[0][0].abs() - 23.0).abs() < 0.5, "{upright:?}");
         // 11% wider at the bottom: each 2 x period repeat still correlates
         // (the regularity check passes), but the period is not one.
-        let receding = Lattice::detect(&boards(22.0, 24.5), &[1.0]);
-        assert_eq!(receding, None, "boards widening 22 -> 24.5 px down the image");
+        let receding = boards(22.0, 24.5);
+        assert!(Lattice::detect(&receding, &[1.0]).is_some(), "a mean period");
+        assert_eq!(Lattice::detect_steady(&receding, &[1.0]), None, "boards widening 22 -> 24.5 px down the image");
     }
 
     #[test]

@@ -121,7 +121,9 @@ pub struct QuiltParams {
     /// a block is only taken from where it continues its left and top
     /// neighbours' structure in phase, within the lattice's tolerance. The
     /// overlap cost alone lets a block that fits its L-shaped overlap shift
-    /// courses or split a tile. Not applied to texture transfer.
+    /// courses or split a tile. Not applied to texture transfer, nor to a
+    /// period that drifts across the exemplar (perspective,
+    /// [`Lattice::detect_steady`]).
     pub lattice: bool,
     /// Lay the blocks out irregularly (not in the paper): rows of jittered
     /// height, each with its own jittered spacing, so block outlines do
@@ -1366,7 +1368,7 @@ impl Synthesis<'_> {
         // parallel inside, but not enough to keep both cores busy on a small
         // exemplar, so they run side by side.
         let detect_lattice = || {
-            let lattice = if params.lattice && guided.is_none() { Lattice::detect(src, &weights) } else { None };
+            let lattice = if params.lattice && guided.is_none() { Lattice::detect_steady(src, &weights) } else { None };
             lattice.and_then(|l| l.longer_than(block.0.min(block.1) as f32 / 3.0))
         };
         let rarity = || -> Result<Option<Image>> {
