@@ -269,6 +269,11 @@ impl GuideArgs {
     }
 }
 
+/// Period vectors as "(x, y) px and (x, y) px".
+fn periods_text(periods: &[[f32; 2]]) -> String {
+    periods.iter().map(|p| format!("({:.1}, {:.1}) px", p[0], p[1])).collect::<Vec<_>>().join(" and ")
+}
+
 /// A tileable output of a regular texture closes its grid across the
 /// edges only when its size is a whole number of periods: say which size
 /// nearest the asked one would (the manifest holds the lattice).
@@ -277,7 +282,7 @@ fn tile_fit_note(lattice: &Lattice, size: (usize, usize)) {
     if fit != size {
         crate::output::summary(format!(
             "note: the exemplar repeats every {}; a {}x{} tile breaks that grid at its edges, {}x{} would close it",
-            lattice.periods.iter().map(|p| format!("({:.1}, {:.1}) px", p[0], p[1])).collect::<Vec<_>>().join(" and "),
+            periods_text(&lattice.periods),
             size.0,
             size.1,
             fit.0,
@@ -338,6 +343,18 @@ pub fn run(args: Args) -> Result<()> {
     manifest.timings_ms.insert("synthesize".into(), clock.lap());
     if let Some(l) = lattice.as_ref().filter(|_| args.tile) {
         tile_fit_note(l, size);
+    }
+    if !args.no_lattice && guides.is_none() {
+        let drifting = Lattice::drifting(&exemplar, &vec![1.0 / exemplar.channels() as f32; exemplar.channels()]);
+        if !drifting.is_empty() {
+            manifest.metrics.insert("drifting_periods".into(), json!(drifting));
+            crate::output::summary(format!(
+                "note: the exemplar repeats about every {}, but that period changes across it by more than {:.0}% \
+                 (perspective?), so blocks are not kept in phase with it; a photo taken square-on keeps rows and columns whole",
+                periods_text(&drifting),
+                100.0 * patina::synth::lattice::DRIFT
+            ));
+        }
     }
     crate::embed::commit_point();
     crate::output::save(&image, &args.out, depth)?;

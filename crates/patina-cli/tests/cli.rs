@@ -83,8 +83,16 @@ fn a_regular_exemplar_records_its_lattice_and_a_tile_says_which_size_closes_it()
     assert!(note.contains("192x192 would close it"), "{note}");
     let (note, _) = run("b.png", "192x192", &["--tile"]);
     assert!(!note.contains("would close"), "{note}");
+    assert!(!note.contains("perspective"), "{note}");
     let (_, lattice) = run("c.png", "200x200", &["--no-lattice"]);
     assert!(lattice.is_null(), "{lattice}");
+    // Boards widening down the image: no lattice kept, and a note says why.
+    save_png(&patina::samples::receding_boards(200, 200, 22.0, 24.5, 3), &ex, BitDepth::Eight).unwrap();
+    let (note, lattice) = run("d.png", "240x240", &[]);
+    assert!(lattice.is_null(), "{lattice}");
+    assert!(note.contains("perspective"), "{note}");
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("d.png.manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["metrics"]["drifting_periods"].as_array().map(Vec::len), Some(1), "{}", m["metrics"]);
 }
 
 #[test]

@@ -182,6 +182,21 @@ pub fn stucco(width: usize, height: usize, seed: u64) -> Image {
 /// Period, in pixels, of [`planks`] across the boards.
 pub const PLANK_PERIOD: usize = 26;
 
+/// Upright boards (grey, one channel) seen from below: `top` px wide at
+/// the top, widening evenly to `bottom` px at the bottom and spreading
+/// from the centre, with dark gaps and fine grain. With `top == bottom`
+/// they repeat with one period; otherwise the period drifts, as a
+/// structure photographed at an angle does.
+pub fn receding_boards(width: usize, height: usize, top: f32, bottom: f32, seed: u64) -> Image {
+    let mut g = rng::generator(seed, &[0xb0]);
+    let grain: Vec<f32> = (0..width * height).map(|_| g.gen_range(0.0..0.04)).collect();
+    Image::from_fn(width, height, 1, |x, y, p| {
+        let u = (x as f32 - width as f32 / 2.0) / (top + (bottom - top) * y as f32 / height as f32);
+        let across = u - u.floor();
+        p[0] = if across < 0.12 { 0.1 } else { 0.45 + 0.25 * (across - 0.5).abs() } + grain[y * width + x];
+    })
+}
+
 /// Wooden planks: horizontal boards [`PLANK_PERIOD`] px apart with a
 /// 2 px dark gap, each board its own tone, long grain streaks and board
 /// ends staggered from row to row. Regular across the boards, stochastic

@@ -149,7 +149,7 @@ impl Lattice {
     /// Detect the regular structure of `img` (channels weighted by
     /// `weights`, as the synthesis compares them); `None` = stochastic.
     pub fn detect(img: &Image, weights: &[f32]) -> Option<Lattice> {
-        Self::detect_with(img, weights, false)
+        Self::of(found(img, weights, false).into_iter().map(|(v, _)| v).collect())
     }
 
     /// [`Lattice::detect`] without the periods that drift across the
@@ -158,29 +158,18 @@ impl Lattice {
     /// weathering's tile template takes the drifting periods too: its
     /// median over tiles in perspective is checked for sharpness there.)
     pub fn detect_steady(img: &Image, weights: &[f32]) -> Option<Lattice> {
-        Self::detect_with(img, weights, true)
+        Self::of(found(img, weights, true).into_iter().filter(|&(_, d)| !d).map(|(v, _)| v).collect())
     }
 
-    fn detect_with(img: &Image, weights: &[f32], steady: bool) -> Option<Lattice> {
-        let mut analysed = img.clone();
-        let mut scale = 1.0f32;
-        while analysed.width().max(analysed.height()) > MAX_SIDE {
-            analysed = pyr_down(&analysed);
-            scale *= 2.0;
-        }
-        if analysed.width().min(analysed.height()) < 4 * MIN_PERIOD {
-            return None;
-        }
-        let corr = Correlation::new(&analysed, weights)?;
-        let periods = match continuous_direction(&corr) {
-            Some(along) => vec![stripe_period(&corr, along)?],
-            None => grid_periods(&corr)?.into_iter().filter(|&v| regular(|x, y| corr.sample(x, y), v, &corr)).collect(),
-        };
-        let periods: Vec<[f32; 2]> = periods.into_iter().filter(|&v| !steady || !drifts(&corr, v)).collect();
-        if periods.is_empty() {
-            return None;
-        }
-        Some(Lattice { periods: periods.into_iter().map(|[x, y]| [x * scale, y * scale]).collect() })
+    /// The periods [`Lattice::detect`] finds and [`Lattice::detect_steady`]
+    /// drops: a regular structure whose period changes across the
+    /// exemplar, as in a photo taken at an angle.
+    pub fn drifting(img: &Image, weights: &[f32]) -> Vec<[f32; 2]> {
+        found(img, weights, true).into_iter().filter(|&(_, d)| d).map(|(v, _)| v).collect()
+    }
+
+    fn of(periods: Vec<[f32; 2]>) -> Option<Lattice> {
+        (!periods.is_empty()).then_some(Lattice { periods })
     }
 
     /// How far, in pixels, the shift `d` is from the nearest shift that maps
@@ -212,7 +201,7 @@ impl Lattice {
     /// Only the periods longer than `length`; `None` if none is.
     pub fn longer_than(&self, length: f32) -> Option<Lattice> {
         let periods: Vec<[f32; 2]> = self.periods.iter().copied().filter(|p| (p[0] * p[0] + p[1] * p[1]).sqrt() > length).collect();
-        (!periods.is_empty()).then_some(Lattice { periods })
+        Self::of(periods)
     }
 
     /// The tile size nearest `(w, h)` whose edges wrap in phase: the
@@ -236,6 +225,27 @@ impl Lattice {
         let shortest = self.periods.iter().map(|p| (p[0] * p[0] + p[1] * p[1]).sqrt()).fold(f32::INFINITY, f32::min);
         (0.03 * shortest).max(1.5)
     }
+}
+
+/// Every period of `img`'s regular structure (see the module docs), in
+/// its pixels, each with whether it drifts across the image ([`drifts`];
+/// only judged when `judge_drift`).
+fn found(img: &Image, weights: &[f32], judge_drift: bool) -> Vec<([f32; 2], bool)> {
+    let mut analysed = img.clone();
+    let mut scale = 1.0f32;
+    while analysed.width().max(analysed.height()) > MAX_SIDE {
+        analysed = pyr_down(&analysed);
+        scale *= 2.0;
+    }
+    if analysed.width().min(analysed.height()) < 4 * MIN_PERIOD {
+        return Vec::new();
+    }
+    let Some(corr) = Correlation::new(&analysed, weights) else { return Vec::new() };
+    let periods: Vec<[f32; 2]> = match continuous_direction(&corr) {
+        Some(along) => stripe_period(&corr, along).into_iter().collect(),
+        None => grid_periods(&corr).unwrap_or_default().into_iter().filter(|&v| regular(|x, y| corr.sample(x, y), v, &corr)).collect(),
+    };
+    periods.into_iter().map(|v| ([v[0] * scale, v[1] * scale], judge_drift && drifts(&corr, v))).collect()
 }
 
 /// The direction (unit vector) along which the correlation stays high, if any.
@@ -496,24 +506,17 @@ mod tests {
 
     #[test]
     fn boards_receding_in_perspective_keep_no_period() {
-        // Upright boards whose width grows from `top` px at the top to
-        // `bottom` at the bottom, spreading from the centre: a fence seen
-        // from below. Every row has a period, but not the same one.
-        let boards = |top: f32, bottom: f32| {
-            let mut g = rng::generator(8, &[]);
-            let grain: Vec<f32> = (0..240 * 240).map(|_| g.gen_range(0.0..0.04)).collect();
-            Image::from_fn(240, 240, 1, |x, y, p| {
-                let u = (x as f32 - 120.0) / (top + (bottom - top) * y as f32 / 240.0);
-                let across = u - u.floor();
-                p[0] = if across < 0.12 { 0.1 } else { 0.45 + 0.25 * (across - 0.5).abs() } + grain[y * 240 + x];
-            })
-        };
+        // A fence seen from below: every row has a period, but not the
+        // same one.
+        let boards = |top: f32, bottom: f32| crate::samples::receding_boards(240, 240, top, bottom, 8);
         let upright = Lattice::detect_steady(&boards(23.0, 23.0), &[1.0]).expect("boards of one width");
         assert!((upright.periods[0][0].abs() - 23.0).abs() < 0.5, "{upright:?}");
         // 11% wider at the bottom: each 2 x period repeat still correlates
         // (the regularity check passes), but the period is not one.
         let receding = boards(22.0, 24.5);
         assert!(Lattice::detect(&receding, &[1.0]).is_some(), "a mean period");
+        assert_eq!(Lattice::drifting(&receding, &[1.0]).len(), 1);
+        assert!(Lattice::drifting(&boards(23.0, 23.0), &[1.0]).is_empty());
         assert_eq!(Lattice::detect_steady(&receding, &[1.0]), None, "boards widening 22 -> 24.5 px down the image");
     }
 
