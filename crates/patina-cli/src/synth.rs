@@ -306,7 +306,7 @@ pub fn run(args: Args) -> Result<()> {
     let size = args.size.or(guides.as_ref().map(|(_, t)| t.size())).unwrap_or((2 * exemplar.width(), 2 * exemplar.height()));
     manifest.timings_ms.insert("load".into(), clock.lap());
 
-    let (image, mut params, lattice) = with_bar("synth", |report| -> Result<_> {
+    let (image, mut params, lattice, drifting) = with_bar("synth", |report| -> Result<_> {
         let mut problem = Synthesis::new(&exemplar)
             .size(size.0, size.1)
             .seed(args.seed)
@@ -328,7 +328,7 @@ pub fn run(args: Args) -> Result<()> {
             manifest.metrics.insert("blocks".into(), json!(out.plan.placements.len()));
             manifest.metrics.insert("lighting".into(), json!(out.lighting));
             manifest.metrics.insert("lattice".into(), json!(out.lattice));
-            (out.image, json!({ "method": "quilt", "quilt": p }), out.lattice)
+            (out.image, json!({ "method": "quilt", "quilt": p }), out.lattice, out.drifting)
         } else {
             let mut p = args.optimize_params();
             let out = problem.optimize(&p)?;
@@ -337,24 +337,21 @@ pub fn run(args: Args) -> Result<()> {
             manifest.metrics.insert("mean_patch_rms".into(), json!((out.nnf.mean_cost(None) / texels).sqrt()));
             manifest.metrics.insert("lighting".into(), json!(out.lighting));
             manifest.metrics.insert("lattice".into(), json!(out.lattice));
-            (out.image, json!({ "method": "optimize", "optimize": p }), out.lattice)
+            (out.image, json!({ "method": "optimize", "optimize": p }), out.lattice, out.drifting)
         })
     })?;
     manifest.timings_ms.insert("synthesize".into(), clock.lap());
     if let Some(l) = lattice.as_ref().filter(|_| args.tile) {
         tile_fit_note(l, size);
     }
-    if !args.no_lattice && guides.is_none() {
-        let drifting = Lattice::drifting(&exemplar, &vec![1.0 / exemplar.channels() as f32; exemplar.channels()]);
-        if !drifting.is_empty() {
-            manifest.metrics.insert("drifting_periods".into(), json!(drifting));
-            crate::output::summary(format!(
-                "note: the exemplar repeats about every {}, but that period changes across it by more than {:.0}% \
-                 (perspective?), so blocks are not kept in phase with it; a photo taken square-on keeps rows and columns whole",
-                periods_text(&drifting),
-                100.0 * patina::synth::lattice::DRIFT
-            ));
-        }
+    if !drifting.is_empty() {
+        manifest.metrics.insert("drifting_periods".into(), json!(drifting));
+        crate::output::summary(format!(
+            "note: the exemplar repeats about every {}, but that period changes across it by more than {:.0}% \
+             (perspective?), so blocks are not kept in phase with it; a photo taken square-on keeps rows and columns whole",
+            periods_text(&drifting),
+            100.0 * patina::synth::lattice::DRIFT
+        ));
     }
     crate::embed::commit_point();
     crate::output::save(&image, &args.out, depth)?;

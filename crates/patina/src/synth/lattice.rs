@@ -68,6 +68,10 @@ pub const DRIFT: f32 = 0.06;
 /// measured.
 const BAND_REPEATS: f32 = 3.0;
 
+/// What [`Lattice::detect_steady`] finds: the lattice kept, if any, and
+/// the periods left out as drifting.
+pub type Steady = (Option<Lattice>, Vec<[f32; 2]>);
+
 /// The periods of a texture's regular structure: one vector (repeats in one
 /// direction, e.g. across boards) or two (a grid), in exemplar pixels.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -154,18 +158,14 @@ impl Lattice {
 
     /// [`Lattice::detect`] without the periods that drift across the
     /// exemplar ([`DRIFT`]): only what one shift keeps in phase
-    /// everywhere, which is what quilting aligns its blocks on. (The
-    /// weathering's tile template takes the drifting periods too: its
-    /// median over tiles in perspective is checked for sharpness there.)
-    pub fn detect_steady(img: &Image, weights: &[f32]) -> Option<Lattice> {
-        Self::of(found(img, weights, true).into_iter().filter(|&(_, d)| !d).map(|(v, _)| v).collect())
-    }
-
-    /// The periods [`Lattice::detect`] finds and [`Lattice::detect_steady`]
-    /// drops: a regular structure whose period changes across the
-    /// exemplar, as in a photo taken at an angle.
-    pub fn drifting(img: &Image, weights: &[f32]) -> Vec<[f32; 2]> {
-        found(img, weights, true).into_iter().filter(|&(_, d)| d).map(|(v, _)| v).collect()
+    /// everywhere, which is what quilting aligns its blocks on; and the
+    /// drifting periods it left out (a regular structure photographed at
+    /// an angle). (The weathering's tile template takes the drifting
+    /// periods too: its median over tiles in perspective is checked for
+    /// sharpness there.)
+    pub fn detect_steady(img: &Image, weights: &[f32]) -> Steady {
+        let (drifting, steady): (Vec<_>, Vec<_>) = found(img, weights, true).into_iter().partition(|&(_, d)| d);
+        (Self::of(steady.into_iter().map(|(v, _)| v).collect()), drifting.into_iter().map(|(v, _)| v).collect())
     }
 
     fn of(periods: Vec<[f32; 2]>) -> Option<Lattice> {
@@ -509,15 +509,17 @@ mod tests {
         // A fence seen from below: every row has a period, but not the
         // same one.
         let boards = |top: f32, bottom: f32| crate::samples::receding_boards(240, 240, top, bottom, 8);
-        let upright = Lattice::detect_steady(&boards(23.0, 23.0), &[1.0]).expect("boards of one width");
+        let (upright, none) = Lattice::detect_steady(&boards(23.0, 23.0), &[1.0]);
+        let upright = upright.expect("boards of one width");
         assert!((upright.periods[0][0].abs() - 23.0).abs() < 0.5, "{upright:?}");
+        assert!(none.is_empty(), "{none:?}");
         // 11% wider at the bottom: each 2 x period repeat still correlates
         // (the regularity check passes), but the period is not one.
         let receding = boards(22.0, 24.5);
         assert!(Lattice::detect(&receding, &[1.0]).is_some(), "a mean period");
-        assert_eq!(Lattice::drifting(&receding, &[1.0]).len(), 1);
-        assert!(Lattice::drifting(&boards(23.0, 23.0), &[1.0]).is_empty());
-        assert_eq!(Lattice::detect_steady(&receding, &[1.0]), None, "boards widening 22 -> 24.5 px down the image");
+        let (steady, drifting) = Lattice::detect_steady(&receding, &[1.0]);
+        assert_eq!(steady, None, "boards widening 22 -> 24.5 px down the image");
+        assert_eq!(drifting.len(), 1);
     }
 
     #[test]

@@ -128,6 +128,8 @@ pub struct Synthesized {
     pub lighting: Option<super::lighting::LightingReport>,
     /// The regular structure the quilt start kept in phase, if any.
     pub lattice: Option<super::Lattice>,
+    /// The drifting periods the quilt start did not ([`super::Quilted::drifting`]).
+    pub drifting: Vec<[f32; 2]>,
 }
 
 impl Synthesized {
@@ -252,7 +254,7 @@ impl Synthesis<'_> {
         seed: u64,
         seams_only: bool,
         start: &OptimizeParams,
-    ) -> Result<(Nnf, Mask, Option<super::Lattice>)> {
+    ) -> Result<(Nnf, Mask, super::lattice::Steady)> {
         let (lattice, rarity, families, cap) = (start.lattice, start.rarity, start.families, start.cap);
         let mut problem = Synthesis::new(style).size(size.0, size.1).seed(seed).tileable(self.tileable);
         if let Some(m) = allowed {
@@ -281,7 +283,7 @@ impl Synthesis<'_> {
         let quilted = problem.quilt(&params)?;
         let plan = quilted.plan;
         let (field, seams) = layout_field(&plan.source_positions(), size, domain, self.tileable);
-        Ok((field, seams, quilted.lattice))
+        Ok((field, seams, (quilted.lattice, quilted.drifting)))
     }
 
     /// Synthesize by texture optimization.
@@ -330,7 +332,7 @@ impl Synthesis<'_> {
         let mut done = 0u64;
         let mut nnf: Option<Nnf> = None;
         let mut seams: Option<Mask> = None;
-        let mut lattice = None;
+        let (mut lattice, mut drifting) = (None, Vec::new());
         let mut target = Image::new(1, 1, 1);
         for level in (0..levels).rev() {
             let (tw, th) = sizes[level];
@@ -363,13 +365,13 @@ impl Synthesis<'_> {
                         let field = match self.layout {
                             Some(layout) => {
                                 let (field, seams) = layout_field(layout, (tw, th), &domain, false);
-                                Ok((field, seams, None))
+                                Ok((field, seams, (None, Vec::new())))
                             }
                             None => self.quilt_field(style, sg, tg, allowed, (tw, th), &domain, level_seed, seams_only, params),
                         };
                         match field {
                             Ok((field, overlap, found)) => {
-                                lattice = found;
+                                (lattice, drifting) = found;
                                 seams = seams_only.then(|| match self.tileable {
                                     true => Torus::new(tw, th, 2 * r + 2).dilate(&overlap),
                                     false => overlap.dilate(2 * r + 2),
@@ -481,6 +483,6 @@ impl Synthesis<'_> {
         }
         let mut image = target;
         image.set_groups(src.groups().to_vec())?;
-        Ok(Synthesized { image, nnf: nnf.expect("at least one level"), levels, lighting: None, lattice })
+        Ok(Synthesized { image, nnf: nnf.expect("at least one level"), levels, lighting: None, lattice, drifting })
     }
 }

@@ -275,6 +275,10 @@ pub struct Quilted {
     pub lighting: Option<super::lighting::LightingReport>,
     /// The regular structure the blocks were kept aligned with, if any.
     pub lattice: Option<Lattice>,
+    /// Periods of a regular structure that drifts across the exemplar
+    /// (perspective), which the blocks were not kept aligned with
+    /// ([`Lattice::detect_steady`]).
+    pub drifting: Vec<[f32; 2]>,
 }
 
 impl QuiltPlan {
@@ -1368,8 +1372,9 @@ impl Synthesis<'_> {
         // parallel inside, but not enough to keep both cores busy on a small
         // exemplar, so they run side by side.
         let detect_lattice = || {
-            let lattice = if params.lattice && guided.is_none() { Lattice::detect_steady(src, &weights) } else { None };
-            lattice.and_then(|l| l.longer_than(block.0.min(block.1) as f32 / 3.0))
+            let (lattice, drifting) =
+                if params.lattice && guided.is_none() { Lattice::detect_steady(src, &weights) } else { (None, Vec::new()) };
+            (lattice.and_then(|l| l.longer_than(block.0.min(block.1) as f32 / 3.0)), drifting)
         };
         let rarity = || -> Result<Option<Image>> {
             if params.rarity > 0.0 && guided.is_none() {
@@ -1406,7 +1411,8 @@ impl Synthesis<'_> {
                 Ok(None)
             }
         };
-        let ((lattice, rarity), (families, twin)) = rayon::join(|| rayon::join(detect_lattice, rarity), || rayon::join(families, twin));
+        let (((lattice, drifting), rarity), (families, twin)) =
+            rayon::join(|| rayon::join(detect_lattice, rarity), || rayon::join(families, twin));
         let (rarity, families, twin) = (rarity?, families?, twin?);
         let mut previous: Option<Image> = None;
         let mut plan = None;
@@ -1464,7 +1470,7 @@ impl Synthesis<'_> {
         } else {
             plan.render(src)?
         };
-        Ok(Quilted { image, plan, lighting: None, lattice })
+        Ok(Quilted { image, plan, lighting: None, lattice, drifting })
     }
 }
 
