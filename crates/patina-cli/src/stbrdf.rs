@@ -5,6 +5,7 @@ use crate::output::{parse_size, save_png, side_by_side, Manifest, OutDir, Stopwa
 use crate::progress::with_bar;
 use crate::synth::GuideArgs;
 use patina::image::io::{self, save_gif, BitDepth};
+use patina::image::register::Registration;
 use patina::image::sequence::{load_sequence, natural_cmp, MAX_FRAMES};
 use patina::image::Image;
 use patina::stbrdf::{enlarge, fit, render, shader, transfer, Encoding, Material, Param};
@@ -60,6 +61,11 @@ pub struct FitArgs {
     /// auto: sRGB when they are 8- or 16-bit images (PNG, JPEG, GIF), linear when they are EXR.
     #[arg(long, value_enum, default_value_t = EncodingArg::Auto)]
     pub encoding: EncodingArg,
+    /// Fit the time steps as they are. By default a camera that shakes is undone first: each step is registered
+    /// to the ones before it (a whole-pixel translation, by phase correlation on the Diffuse maps) and all are
+    /// cropped to the window they share, so that each texel's polynomial follows one place on the surface.
+    #[arg(long)]
+    pub no_register: bool,
 }
 
 /// `--encoding`.
@@ -361,6 +367,15 @@ fn run_fit(args: FitArgs) -> Result<()> {
     if args.staf {
         fit::decouple_frames(&mut steps, &params)?;
     }
+    let registration = if args.no_register {
+        None
+    } else {
+        let channels = patina::stbrdf::material::param_range(&params, "diffuse").unwrap_or(0..params[0].channels);
+        Some(Registration::of(&steps, channels)?).filter(|r| !r.is_steady())
+    };
+    if let Some(r) = &registration {
+        steps = r.apply(&steps);
+    }
     let n = steps.len();
     let times = match &args.times {
         Some(t) if t.len() != n => return Err(Error::invalid(format!("--times lists {} times for {n} time steps", t.len()))),
@@ -381,10 +396,17 @@ fn run_fit(args: FitArgs) -> Result<()> {
         channel += p.channels;
     }
     manifest.metrics.insert("rms".into(), serde_json::Value::Object(rms));
-    manifest.params = json!({ "degree": args.degree, "times": times, "staf_decoupled": args.staf, "encoding": encoding, "params": fitted.material.params.iter().map(|p| json!({"name": p.name, "channels": p.channels})).collect::<Vec<_>>() });
+    manifest.params = json!({ "degree": args.degree, "times": times, "staf_decoupled": args.staf, "encoding": encoding, "params": fitted.material.params.iter().map(|p| json!({"name": p.name, "channels": p.channels})).collect::<Vec<_>>(), "registered": !args.no_register, "registration": registration });
     manifest.inputs = vec![args.input.clone()];
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;
+    if let Some(r) = &registration {
+        let [mx, my] = r.largest_motion();
+        let [_, _, w, h] = r.window;
+        crate::output::summary(format!(
+            "note: the camera moves by up to {mx} x {my} px over the time steps; they were registered and the material is their common {w}x{h} window (--no-register fits them as they are)"
+        ));
+    }
     crate::output::summary(format!("patina stbrdf fit: {} time steps -> degree-{} material in {}", n, args.degree, args.out.display()));
     Ok(())
 }

@@ -481,6 +481,58 @@ fn stbrdf_fits_enlarges_transfers_and_renders() {
     }
 }
 
+/// A capture whose camera shakes: cobbles stained by drying wood's damp,
+/// which dries over time, seen through a 64 x 56 window that moves by
+/// `moves` (x, y) px, one PNG frame per time.
+fn shaking_frames(dir: &Path, moves: &[(usize, usize)]) -> PathBuf {
+    let root = dir.join("shaking");
+    std::fs::create_dir_all(&root).unwrap();
+    for (i, &(mx, my)) in moves.iter().enumerate() {
+        let t = i as f32 / (moves.len() - 1) as f32;
+        let damp = patina::stbrdf::procedural::drying_wood_at(80, 72, t, 4);
+        let cobbles = patina::samples::cobbles(80, 72, 4);
+        let frame = patina::Image::from_fn(64, 56, 3, |x, y, p| {
+            let (d, c) = (damp.pixel(x + mx, y + my), cobbles.pixel(x + mx, y + my));
+            (0..3).for_each(|k| p[k] = c[k] * d[k] / 0.62);
+        });
+        save_png(&frame, root.join(format!("frame_{i:02}.png")), BitDepth::Sixteen).unwrap();
+    }
+    root
+}
+
+#[test]
+fn stbrdf_fit_registers_a_shaking_capture() {
+    let dir = scratch("stbrdf-shaking");
+    let moves = [(4, 4), (9, 5), (8, 3), (10, 6), (7, 4), (11, 5), (9, 2), (10, 4)];
+    let frames = shaking_frames(&dir, &moves);
+    let fit = |out: &str, extra: &[&str]| {
+        let out = dir.join(out);
+        let mut args = vec!["stbrdf", "fit", s(&frames), "-o", s(&out)];
+        args.extend_from_slice(extra);
+        let r = patina(&args, None);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let m: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+        let rms: f64 = m["metrics"]["rms"]["Diffuse"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).sum::<f64>() / 3.0;
+        (patina::stbrdf::Material::load(&out).unwrap(), m, rms, String::from_utf8_lossy(&r.stderr).into_owned())
+    };
+    let (registered, m, rms, said) = fit("registered", &[]);
+    let (raw, _, raw_rms, _) = fit("raw", &["--no-register"]);
+    // Frame i shows frame 0's place moved back by its move; the camera
+    // spans 7 px across and 4 down, so 57 x 52 of 64 x 56 are common.
+    let offsets: Vec<[i64; 2]> = m["params"]["registration"]["offsets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| [o[0].as_i64().unwrap(), o[1].as_i64().unwrap()])
+        .collect();
+    let want: Vec<[i64; 2]> = moves.iter().map(|&(x, y)| [4 - x as i64, 4 - y as i64]).collect();
+    assert_eq!(offsets, want);
+    assert_eq!((registered.size(), raw.size()), ((57, 52), (64, 56)));
+    assert!(said.contains("7 x 2 px") && said.contains("57x52"), "{said}");
+    // Each texel's fit follows one place: it fits the frames far better.
+    assert!(rms < 0.5 * raw_rms, "rms {rms} registered, {raw_rms} not");
+}
+
 #[test]
 fn stbrdf_bad_input_is_one_line_exit_2_and_leaves_nothing() {
     let dir = scratch("stbrdf-bad");

@@ -155,19 +155,11 @@ pub fn flicker(frames: &[Image]) -> f64 {
 /// pixel, lies in [k, k + 1) / min(w, h); k = 1 .. min(w, h) / 2 (entry 0
 /// is unused and 0).
 pub fn radial_power_spectrum(img: &Image) -> Vec<f64> {
-    use rustfft::{num_complex::Complex, FftPlanner};
+    use crate::image::fourier::{fft2, Complex, FftDirection};
     let (w, h) = img.size();
     let mean = (0..w * h).map(|i| img.at(i % w, i / w, 0) as f64).sum::<f64>() / (w * h) as f64;
     let mut data: Vec<Complex<f64>> = (0..w * h).map(|i| Complex::new(img.at(i % w, i / w, 0) as f64 - mean, 0.0)).collect();
-    let mut planner = FftPlanner::new();
-    let (row, col) = (planner.plan_fft_forward(w), planner.plan_fft_forward(h));
-    data.chunks_mut(w).for_each(|r| row.process(r));
-    let mut column = vec![Complex::new(0.0, 0.0); h];
-    for x in 0..w {
-        (0..h).for_each(|y| column[y] = data[y * w + x]);
-        col.process(&mut column);
-        (0..h).for_each(|y| data[y * w + x] = column[y]);
-    }
+    fft2(&mut data, w, h, FftDirection::Forward);
     let bins = w.min(h) / 2;
     let (mut sum, mut count) = (vec![0f64; bins + 1], vec![0usize; bins + 1]);
     let side = w.min(h) as f64;
