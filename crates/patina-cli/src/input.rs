@@ -24,3 +24,26 @@ pub fn load(path: impl AsRef<Path>) -> Result<Image> {
     }
     Ok(loaded.image)
 }
+
+/// A time-lapse's frames registered on its first (a camera that shakes;
+/// `patina::image::register`) on the mean of `channels`, with the
+/// registration when any frame moved; `off` (`--no-register`) keeps them.
+pub fn registered(
+    frames: Vec<Image>,
+    channels: std::ops::Range<usize>,
+    off: bool,
+) -> Result<(Vec<Image>, Option<patina::image::register::Registration>)> {
+    if off {
+        return Ok((frames, None));
+    }
+    let registration = patina::image::register::Registration::of(&frames, channels)?;
+    if registration.is_steady() {
+        return Ok((frames, None));
+    }
+    let [mx, my] = registration.largest_motion();
+    let [_, _, w, h] = registration.window;
+    crate::output::summary(format!(
+        "note: the camera moves by up to {mx} x {my} px over the time steps; they were registered and cropped to the {w}x{h} window all of them show (--no-register takes them as they are)"
+    ));
+    Ok((registration.apply(&frames), Some(registration)))
+}

@@ -5,7 +5,6 @@ use crate::output::{parse_size, save_png, side_by_side, Manifest, OutDir, Stopwa
 use crate::progress::with_bar;
 use crate::synth::GuideArgs;
 use patina::image::io::{self, save_gif, BitDepth};
-use patina::image::register::Registration;
 use patina::image::sequence::{load_sequence, natural_cmp, MAX_FRAMES};
 use patina::image::Image;
 use patina::stbrdf::{enlarge, fit, render, shader, transfer, Encoding, Material, Param};
@@ -367,15 +366,8 @@ fn run_fit(args: FitArgs) -> Result<()> {
     if args.staf {
         fit::decouple_frames(&mut steps, &params)?;
     }
-    let registration = if args.no_register {
-        None
-    } else {
-        let channels = patina::stbrdf::material::param_range(&params, "diffuse").unwrap_or(0..params[0].channels);
-        Some(Registration::of(&steps, channels)?).filter(|r| !r.is_steady())
-    };
-    if let Some(r) = &registration {
-        steps = r.apply(&steps);
-    }
+    let channels = patina::stbrdf::material::param_range(&params, "diffuse").unwrap_or(0..params[0].channels);
+    let (steps, registration) = crate::input::registered(steps, channels, args.no_register)?;
     let n = steps.len();
     let times = match &args.times {
         Some(t) if t.len() != n => return Err(Error::invalid(format!("--times lists {} times for {n} time steps", t.len()))),
@@ -400,13 +392,6 @@ fn run_fit(args: FitArgs) -> Result<()> {
     manifest.inputs = vec![args.input.clone()];
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;
-    if let Some(r) = &registration {
-        let [mx, my] = r.largest_motion();
-        let [_, _, w, h] = r.window;
-        crate::output::summary(format!(
-            "note: the camera moves by up to {mx} x {my} px over the time steps; they were registered and the material is their common {w}x{h} window (--no-register fits them as they are)"
-        ));
-    }
     crate::output::summary(format!("patina stbrdf fit: {} time steps -> degree-{} material in {}", n, args.degree, args.out.display()));
     Ok(())
 }

@@ -66,6 +66,11 @@ pub struct Args {
     /// are quilted round a torus; the seams are then not blended (the blend does not wrap); not with --lighting stretch.
     #[arg(long)]
     pub tile: bool,
+    /// Take the frames as they are. By default a camera that shakes is undone first: each frame is registered to
+    /// the ones before it (a whole-pixel translation, by phase correlation) and all are cropped to the window they
+    /// share, so that a time column follows one place on the surface instead of flickering.
+    #[arg(long)]
+    pub no_register: bool,
     /// Reuse penalty: a block's cost grows by this factor for every block already taken from around the same input spot (0 = off, the paper); fewer repeated features, at the price of more events per area.
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 100.0))]
     pub reuse: f32,
@@ -216,6 +221,7 @@ pub fn run(args: Args) -> Result<()> {
         seq = seq.subsample(0..n, args.step)?;
     }
     let Sequence { frames, names } = seq;
+    let (frames, registration) = crate::input::registered(frames, 0..3, args.no_register)?;
     let rate = rate_map(&args, args.size)?;
     let (iw, ih) = frames[0].size();
     let size = args.size.or(rate.as_ref().map(|r| r.image().size())).unwrap_or((2 * iw, 2 * ih));
@@ -287,6 +293,8 @@ pub fn run(args: Args) -> Result<()> {
     p["lighting_used"] = json!(result.lighting.as_ref().map_or("keep", |l| l.relight));
     p["frames_range"] = json!(args.frames.as_ref().map(|r| [r.start, r.end]));
     p["step"] = json!(args.step);
+    p["registered"] = json!(!args.no_register);
+    p["registration"] = json!(registration);
     p["output_frames"] = json!(total);
     p["chunk"] = json!(args.chunk.map(|(k, n)| json!({ "index": k, "of": n, "frames": [first, first + result.frames.len()] })));
     p["rate"] = json!(match (&args.rate_map, args.rate_light, &args.rate_curvature) {

@@ -501,7 +501,7 @@ fn shaking_frames(dir: &Path, moves: &[(usize, usize)]) -> PathBuf {
 }
 
 #[test]
-fn stbrdf_fit_registers_a_shaking_capture() {
+fn stbrdf_fit_and_ttf_register_a_shaking_capture() {
     let dir = scratch("stbrdf-shaking");
     let moves = [(4, 4), (9, 5), (8, 3), (10, 6), (7, 4), (11, 5), (9, 2), (10, 4)];
     let frames = shaking_frames(&dir, &moves);
@@ -531,6 +531,29 @@ fn stbrdf_fit_registers_a_shaking_capture() {
     assert!(said.contains("7 x 2 px") && said.contains("57x52"), "{said}");
     // Each texel's fit follows one place: it fits the frames far better.
     assert!(rms < 0.5 * raw_rms, "rms {rms} registered, {raw_rms} not");
+    // ttf registers the same way: its time columns stop shaking.
+    let flicker = |out: &str, extra: &[&str]| {
+        let out = dir.join(out);
+        let mut args = vec!["ttf", s(&frames), "-o", s(&out), "--size", "72x64", "--seed", "1"];
+        args.extend_from_slice(extra);
+        let r = patina(&args, None);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let m: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+        let frames: Vec<patina::Image> = (0..moves.len()).map(|i| load(out.join(format!("frames/{i:03}.png"))).unwrap()).collect();
+        let steps = frames.windows(3).flat_map(|w| {
+            w[1].data()
+                .iter()
+                .zip(w[0].data().iter().zip(w[2].data()))
+                .map(|(b, (a, c))| (b - (a + c) / 2.0).abs() as f64)
+                .collect::<Vec<_>>()
+        });
+        let (sum, n) = steps.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+        (m["params"]["registration"]["window"].clone(), sum / n as f64)
+    };
+    let (window, steady) = flicker("ttf", &[]);
+    let (none, shaking) = flicker("ttf_raw", &["--no-register"]);
+    assert_eq!((window, none), (serde_json::json!([7, 2, 57, 52]), serde_json::Value::Null));
+    assert!(steady < 0.8 * shaking, "frame-to-frame change {steady} registered, {shaking} not");
 }
 
 #[test]
