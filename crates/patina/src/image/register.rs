@@ -20,9 +20,10 @@
 //!   [`REFINE`] px: where the content changed between a frame and its
 //!   reference, the phase-only peak can sit a pixel off.
 //! - A frame keeps the previous frame's offset unless the new one raises
-//!   its normalised correlation with the reference by [`MIN_GAIN`]: content
-//!   that moves without the camera (sprouts growing) does not make the
-//!   sequence shift.
+//!   its normalised correlation with the reference by [`MIN_GAIN`] to at
+//!   least [`MIN_MATCH`]: content that moves without the camera (sprouts
+//!   growing) does not make the sequence shift, and a frame that matches
+//!   nowhere is not moved by a chance peak.
 //! - Shifts are whole pixels (simplification): frames are cropped, never
 //!   resampled, so they keep their sharpness; what is left is under half
 //!   a pixel.
@@ -45,6 +46,11 @@ pub const MIN_GAIN: f64 = 0.02;
 /// Pixels around the phase correlation's peak searched by direct
 /// correlation.
 pub const REFINE: i32 = 2;
+/// Smallest normalised correlation with its reference at which a frame is
+/// moved: a frame that matches nowhere (a cut, or a move beyond
+/// [`MAX_SHIFT`]) keeps the previous frame's offset instead of taking a
+/// chance peak.
+pub const MIN_MATCH: f64 = 0.3;
 /// Smallest share of each side the window common to all frames may keep.
 pub const MIN_KEPT: f32 = 0.5;
 
@@ -121,7 +127,8 @@ impl Registration {
                 .flat_map(|dy| (-REFINE..=REFINE).map(move |dx| [best.0[0] + dx, best.0[1] + dy]))
                 .map(|d| (d, score(d)))
                 .fold(([0; 2], f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
-            let offset = if refined.0 != previous && refined.1 >= score(previous) + MIN_GAIN { refined.0 } else { previous };
+            let moved = refined.0 != previous && refined.1 >= MIN_MATCH && refined.1 >= score(previous) + MIN_GAIN;
+            let offset = if moved { refined.0 } else { previous };
             aligned.push((0..w * h).map(|i| sample(lum, (w, h), (i % w) as i32 + offset[0], (i / w) as i32 + offset[1])).collect());
             offsets.push(offset);
         }
@@ -239,6 +246,16 @@ mod tests {
         assert!(reg.is_steady());
         assert_eq!(reg.window, [0, 0, 96, 96]);
         assert_eq!(reg.apply(&frames), frames);
+    }
+
+    #[test]
+    fn frames_that_match_nowhere_are_not_moved() {
+        // Views 30 px apart (beyond the 24 px searched) of white noise: no
+        // offset correlates, and a chance peak must not move them.
+        let noise = Layer::new(9, 3);
+        let view = |dx: usize| Image::from_fn(96, 96, 1, |x, y, p| p[0] = noise.white((x + dx) as i32, y as i32));
+        let frames: Vec<Image> = (0..4).map(|i| view(30 * i)).collect();
+        assert!(Registration::of(&frames, 0..1).unwrap().is_steady());
     }
 
     #[test]
