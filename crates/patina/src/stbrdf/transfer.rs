@@ -604,13 +604,13 @@ impl Pace {
         let (arriving, mut arrivals): (Vec<usize>, Vec<f32>) =
             (0..timing.size.len()).map(|i| (i, timing.arrival(i, top))).filter(|&(_, a)| a <= 1.0).unzip();
         arrivals.sort_by(f32::total_cmp);
-        let end = material.evaluate(timing.end_at).select_channels(kd.clone());
+        let end = material.evaluate(timing.end_at).select_channels(kd.clone()).map(|v| v.clamp(0.0, 1.0));
         let n = arriving.len().max(1) as f32;
         let colour = std::array::from_fn(|c| arriving.iter().map(|&i| end.data()[3 * i + c]).sum::<f32>() / n);
         let total = timing.size.len();
         let strengths: Vec<f32> = arriving.iter().map(|&i| timing.size[i] / top).collect();
         let strength = if strengths.is_empty() { 1.0 } else { quantile(&strengths, 0.5) };
-        let start = material.evaluate(timing.start_at).select_channels(kd.clone());
+        let start = material.evaluate(timing.start_at).select_channels(kd.clone()).map(|v| v.clamp(0.0, 1.0));
         let bare = std::array::from_fn(|c| arriving.iter().map(|&i| start.data()[3 * i + c]).sum::<f32>() / n);
         let mut pace = Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, strength, opacity: 0.0, bare, top };
         pace.opacity = arriving.iter().map(|&i| pace.own(timing.size[i])).sum::<f32>() / n;
@@ -859,6 +859,15 @@ fn end_state(timing: &Timing, pace: &Pace, i: usize, end: [f32; 3], e: f32) -> (
     (colour, opacity)
 }
 
+/// The Diffuse (3 channels of `m` coefficients each) at `t`, as an albedo
+/// in [0, 1] whatever the polynomial gives past its samples: the end of a
+/// fit to a noisy capture (or of its resampling, `--scale`) can undershoot
+/// below 0, and a blue of -0.12 turned a grey highlight under arriving rust
+/// into pure crimson (0.48, 0.06, 0) on the hydrant's flange.
+fn albedo_at(diffuse: &[f32], m: usize, t: f32) -> [f32; 3] {
+    std::array::from_fn(|k| evaluate(&diffuse[k * m..(k + 1) * m], t).clamp(0.0, 1.0))
+}
+
 /// The darkest luminance [`end_state`] gives, relative to the material's
 /// mean end state ([`Pace::colour`]): rusting steel's darkest frame pixels
 /// are about 0.7 of its mean rust's.
@@ -927,7 +936,7 @@ fn grow(material: &Material, target: &Image, kd: std::ops::Range<usize>, t0: f32
         .par_chunks(n)
         .enumerate()
         .map(|(i, a)| {
-            let end = std::array::from_fn(|k| evaluate(&a[(kd.start + k) * m..(kd.start + k + 1) * m], end_at));
+            let end = albedo_at(&a[kd.start * m..kd.end * m], m, end_at);
             end_state(&timing, pace, i, end, exposed.data()[i])
         })
         .collect();
@@ -1319,6 +1328,18 @@ mod tests {
         assert!(light(rim) <= 1.5 * light(pace.colour), "{rim:?} against {:?}", pace.colour);
         let brown = [0.45, 0.25, 0.12];
         assert_eq!(end_state(&timing, &pace, 2, brown, 0.0), (brown, 1.0));
+    }
+
+    /// A Diffuse whose polynomial undershoots at its end (blue at -0.12)
+    /// arrives as an albedo: no channel below 0 or above 1.
+    #[test]
+    fn an_end_state_past_the_albedo_range_is_clamped() {
+        // Degree 1 per channel: (0.5, 0.4, 0.3) at t = 0, (0.31, 0.04, -0.12) at t = 1.
+        let diffuse = [0.5, -0.19, 0.4, -0.36, 0.3, -0.42];
+        let end = albedo_at(&diffuse, 2, 1.0);
+        assert!((end[0] - 0.31).abs() < 1e-6 && (end[1] - 0.04).abs() < 1e-6 && end[2] == 0.0, "{end:?}");
+        assert_eq!(albedo_at(&[0.5, 0.8, 0.5, 0.0, 0.5, 0.0], 2, 1.0), [1.0, 0.5, 0.5]);
+        assert_eq!(albedo_at(&diffuse, 2, 0.0), [0.5, 0.4, 0.3]);
     }
 
     /// A texel whose change goes against the material's (a glint that
