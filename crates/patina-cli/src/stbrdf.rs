@@ -189,9 +189,10 @@ pub struct TransferArgs {
     #[arg(long, value_parser = |s: &str| crate::flags::positive(s, 0.0, 1.0))]
     pub coverage: Option<f32>,
     /// The material's size on the target: 0.5 draws its features (spots, grain) at half the size they have in the
-    /// material, 2 at twice (its coefficients resampled, exact at every time).
-    #[arg(long, default_value_t = 1.0, value_parser = |s: &str| crate::flags::number(s, 0.05, 8.0))]
-    pub scale: f32,
+    /// material, 2 at twice (its coefficients resampled, exact at every time)
+    /// [default: grow with --mask, the object spans 2.5 times the material's side (within 1..4); else 1]
+    #[arg(long, value_parser = |s: &str| crate::flags::number(s, 0.05, 8.0))]
+    pub scale: Option<f32>,
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -497,6 +498,7 @@ fn run_transfer(args: TransferArgs) -> Result<()> {
     moved.material.save(out.path())?;
     manifest.params = serde_json::to_value(&params).map_err(|e| Error::Internal(e.to_string()))?;
     manifest.params["mode_used"] = json!(moved.mode);
+    manifest.params["scale_used"] = json!(moved.scale);
     manifest.params["masked"] = json!(mask.is_some());
     manifest.params["feather"] = json!(args.feather);
     manifest.params["guide_weight_used"] = json!(params.weight());
