@@ -28,9 +28,10 @@
 //!   resampled, so they keep their sharpness; what is left is under half
 //!   a pixel.
 
-use super::fourier::{fft2, FftDirection, C64};
+use super::fourier::{Fft2, FftDirection, C64};
 use super::Image;
 use crate::error::{Error, Result};
+use rayon::prelude::*;
 use serde::Serialize;
 use std::ops::Range;
 
@@ -74,30 +75,31 @@ impl Registration {
             return Err(Error::invalid("registration needs at least one frame"));
         };
         let (w, h) = first.size();
-        let lums: Vec<Vec<f64>> = frames
-            .iter()
-            .map(|f| {
-                let c = channels.end.min(f.channels());
-                let k = channels.start.min(c - 1)..c;
-                let n = k.len() as f64;
-                f.data().chunks_exact(f.channels()).map(|p| p[k.clone()].iter().map(|&v| v as f64).sum::<f64>() / n).collect()
-            })
-            .collect();
+        // Luminance is made per frame as it is registered, and only the
+        // reference's frames are kept: a 500-frame 256 x 256 sequence holds
+        // 5 of them, not 500.
+        let luminance = |f: &Image| -> Vec<f64> {
+            let c = channels.end.min(f.channels());
+            let k = channels.start.min(c - 1)..c;
+            let n = k.len() as f64;
+            f.data().chunks_exact(f.channels()).map(|p| p[k.clone()].iter().map(|&v| v as f64).sum::<f64>() / n).collect()
+        };
         let hann = |n: usize| -> Vec<f64> {
             (0..n).map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * (i as f64 + 0.5) / n as f64).cos()).collect()
         };
         let (wx, wy) = (hann(w), hann(h));
+        let (forward, inverse) = (Fft2::new(w, h, FftDirection::Forward), Fft2::new(w, h, FftDirection::Inverse));
         let spectrum = |values: &[f64]| -> Vec<C64> {
             let mean = values.iter().sum::<f64>() / values.len() as f64;
             let mut data: Vec<C64> = values.iter().enumerate().map(|(i, v)| C64::new((v - mean) * wx[i % w] * wy[i / w], 0.0)).collect();
-            fft2(&mut data, w, h, FftDirection::Forward);
+            forward.process(&mut data);
             data
         };
         let reach = ((w as f32 * MAX_SHIFT) as i32, (h as f32 * MAX_SHIFT) as i32);
         let mut offsets = vec![[0i32; 2]];
-        let mut aligned: Vec<Vec<f64>> = vec![lums[0].clone()];
-        for lum in &lums[1..] {
-            let recent = &aligned[aligned.len().saturating_sub(REFERENCE_FRAMES)..];
+        let mut recent: std::collections::VecDeque<Vec<f64>> = std::collections::VecDeque::from([luminance(first)]);
+        for frame in &frames[1..] {
+            let lum = &luminance(frame);
             let reference: Vec<f64> = (0..w * h).map(|i| recent.iter().map(|a| a[i]).sum::<f64>() / recent.len() as f64).collect();
             let (f, r) = (spectrum(lum), spectrum(&reference));
             let mut cross: Vec<C64> = f
@@ -108,7 +110,7 @@ impl Registration {
                     c / (c.norm() + 1e-12)
                 })
                 .collect();
-            fft2(&mut cross, w, h, FftDirection::Inverse);
+            inverse.process(&mut cross);
             // The peak's shift is found modulo the frame's size: it is read
             // as the one nearest the previous frame's offset, within reach.
             let previous = *offsets.last().expect("frame 0's offset");
@@ -123,13 +125,16 @@ impl Registration {
             // The peak of a frame whose content changed can sit a pixel
             // off: the shift is refined by direct correlation around it.
             let score = |d: [i32; 2]| correlation(lum, &reference, d, (w, h));
-            let refined = (-REFINE..=REFINE)
-                .flat_map(|dy| (-REFINE..=REFINE).map(move |dx| [best.0[0] + dx, best.0[1] + dy]))
-                .map(|d| (d, score(d)))
-                .fold(([0; 2], f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+            let around: Vec<[i32; 2]> =
+                (-REFINE..=REFINE).flat_map(|dy| (-REFINE..=REFINE).map(move |dx| [best.0[0] + dx, best.0[1] + dy])).collect();
+            let scores: Vec<f64> = around.par_iter().map(|&d| score(d)).collect();
+            let refined = around.into_iter().zip(scores).fold(([0; 2], f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
             let moved = refined.0 != previous && refined.1 >= MIN_MATCH && refined.1 >= score(previous) + MIN_GAIN;
             let offset = if moved { refined.0 } else { previous };
-            aligned.push((0..w * h).map(|i| sample(lum, (w, h), (i % w) as i32 + offset[0], (i / w) as i32 + offset[1])).collect());
+            if recent.len() == REFERENCE_FRAMES {
+                recent.pop_front();
+            }
+            recent.push_back((0..w * h).map(|i| sample(lum, (w, h), (i % w) as i32 + offset[0], (i / w) as i32 + offset[1])).collect());
             offsets.push(offset);
         }
         let span = |k: usize| {
@@ -183,14 +188,28 @@ fn sample(values: &[f64], (w, h): (usize, usize), x: i32, y: i32) -> f64 {
 fn correlation(frame: &[f64], reference: &[f64], d: [i32; 2], (w, h): (usize, usize)) -> f64 {
     let xs = (-d[0]).max(0)..(w as i32 - d[0]).min(w as i32);
     let ys = (-d[1]).max(0)..(h as i32 - d[1]).min(h as i32);
-    let pairs: Vec<(usize, usize)> =
-        ys.flat_map(|y| xs.clone().map(move |x| (y as usize * w + x as usize, (y + d[1]) as usize * w + (x + d[0]) as usize))).collect();
-    let n = pairs.len().max(1) as f64;
-    let (ma, mb) = pairs.iter().fold((0.0, 0.0), |(a, b), &(r, f)| (a + reference[r], b + frame[f]));
+    // The overlap's pixel pairs (reference, frame), row by row.
+    let rows = || {
+        ys.clone().flat_map(|y| {
+            let (r, f) = (y as usize * w, (y + d[1]) as usize * w);
+            let xs = xs.start as usize..xs.end.max(xs.start) as usize;
+            let shift = d[0] as isize;
+            reference[r + xs.start..r + xs.end]
+                .iter()
+                .zip(&frame[(f + xs.start).wrapping_add_signed(shift)..(f + xs.end).wrapping_add_signed(shift)])
+        })
+    };
+    let (mut n, mut ma, mut mb) = (0usize, 0.0, 0.0);
+    for (a, b) in rows() {
+        n += 1;
+        ma += a;
+        mb += b;
+    }
+    let n = n.max(1) as f64;
     let (ma, mb) = (ma / n, mb / n);
     let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-    for &(r, f) in &pairs {
-        let (a, b) = (reference[r] - ma, frame[f] - mb);
+    for (a, b) in rows() {
+        let (a, b) = (a - ma, b - mb);
         ab += a * b;
         aa += a * a;
         bb += b * b;
