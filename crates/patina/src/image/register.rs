@@ -75,6 +75,10 @@ impl Registration {
             return Err(Error::invalid("registration needs at least one frame"));
         };
         let (w, h) = first.size();
+        if let Some(i) = frames.iter().position(|f| f.size() != (w, h)) {
+            let (fw, fh) = frames[i].size();
+            return Err(Error::invalid(format!("frame {i} is {fw}x{fh}, frame 0 {w}x{h}: registration needs frames of one size")));
+        }
         // Luminance is made per frame as it is registered, and only the
         // reference's frames are kept: a 500-frame 256 x 256 sequence holds
         // 5 of them, not 500.
@@ -279,6 +283,8 @@ mod tests {
 
     #[test]
     fn frames_that_share_too_little_are_refused() {
+        let err = Registration::of(&[view(0.0, (0, 0)), Image::new(90, 96, 3)], 0..3).unwrap_err().to_string();
+        assert!(err.contains("frame 1 is 90x96"), "{err}");
         // A pan of 15-20 px per frame is followed, but the frames share 41 px.
         let frames = vec![view(0.0, (0, 0)), view(0.0, (20, 0)), view(0.0, (40, 0)), view(0.0, (55, 0))];
         let err = Registration::of(&frames, 0..3).unwrap_err().to_string();
