@@ -40,10 +40,17 @@ pub fn registered(
     if registration.is_steady() {
         return Ok((frames, None));
     }
-    let [mx, my] = registration.largest_motion();
-    let [_, _, w, h] = registration.window;
-    crate::output::summary(format!(
-        "note: the camera moves by up to {mx} x {my} px over the time steps; they were registered and cropped to the {w}x{h} window all of them show (--no-register takes them as they are)"
-    ));
     Ok((registration.apply(&frames), Some(registration)))
+}
+
+/// Says how far the camera moved, once the run has succeeded (a failing
+/// run's error stays its one line).
+pub fn registration_note(registration: &Option<patina::image::register::Registration>) {
+    if let Some(r) = registration {
+        let [mx, my] = r.largest_motion();
+        let [_, _, w, h] = r.window;
+        crate::output::summary(format!(
+            "note: the camera moves by up to {mx} x {my} px over the time steps; they were registered and cropped to the {w}x{h} window all of them show (--no-register takes them as they are)"
+        ));
+    }
 }

@@ -393,6 +393,7 @@ fn run_fit(args: FitArgs) -> Result<()> {
     manifest.inputs = vec![args.input.clone()];
     manifest.write(&out.path().join("manifest.json"))?;
     out.commit()?;
+    crate::input::registration_note(&registration);
     crate::output::summary(format!("patina stbrdf fit: {} time steps -> degree-{} material in {}", n, args.degree, args.out.display()));
     Ok(())
 }

@@ -322,6 +322,7 @@ pub fn run(args: Args) -> Result<()> {
     manifest.inputs.extend([&args.rate_map, &args.normal_map, &args.rate_curvature].into_iter().flatten().cloned());
     manifest.write(&dir.join("manifest.json"))?;
     out.commit()?;
+    crate::input::registration_note(&registration);
     crate::output::summary(format!("patina ttf: wrote {} frames of {}x{} to {}", result.frames.len(), size.0, size.1, args.out.display()));
     Ok(())
 }

@@ -554,6 +554,8 @@ fn stbrdf_fit_and_ttf_register_a_shaking_capture() {
     let (none, shaking) = flicker("ttf_raw", &["--no-register"]);
     assert_eq!((window, none), (serde_json::json!([7, 2, 57, 52]), serde_json::Value::Null));
     assert!(steady < 0.8 * shaking, "frame-to-frame change {steady} registered, {shaking} not");
+    // A registered run that then fails says only its error.
+    fails_cleanly(&dir, &["ttf", s(&frames), "-o", s(&dir.join("bad")), "--block", "60x8"], "block");
 }
 
 #[test]
