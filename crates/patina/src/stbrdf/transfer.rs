@@ -276,8 +276,9 @@ impl TransferParams {
     /// times its side (sides as square roots of areas), within
     /// [`AUTO_SCALE_RANGE`]: a capture's spots drawn texel for texel on a
     /// photo several times its size are specks of one size (the rusting
-    /// steel capture, 117x105 once registered, on the 768x1024 hydrant:
-    /// "a leopard print", blind review 65/35 against the spots at 1.9x).
+    /// steel capture, 117x105 once registered, on the 768x1024 hydrant at
+    /// scale 1: "a leopard print"; a blind review preferred the same at
+    /// scale 2 by 65/35, and auto gives 1.88 there).
     /// Otherwise 1, the texel size the material was captured at. A
     /// stand-in for the capture's and the object's physical sizes, which
     /// the images do not hold.
