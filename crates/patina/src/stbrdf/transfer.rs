@@ -639,14 +639,22 @@ impl Pace {
         let (arriving, mut arrivals): (Vec<usize>, Vec<f32>) =
             (0..timing.size.len()).map(|i| (i, timing.arrival(i, top))).filter(|&(_, a)| a <= 1.0).unzip();
         arrivals.sort_by(f32::total_cmp);
-        let end = material.evaluate(timing.end_at).select_channels(kd.clone()).map(|v| v.clamp(0.0, 1.0));
+        // The mean albedo of the arriving texels at `t`, read from their
+        // own coefficients.
+        let (m, channels) = (material.degree + 1, material.coefficients.channels());
         let n = arriving.len().max(1) as f32;
-        let colour = std::array::from_fn(|c| arriving.iter().map(|&i| end.data()[3 * i + c]).sum::<f32>() / n);
+        let mean_at = |t: f32| -> [f32; 3] {
+            let albedos: Vec<[f32; 3]> = arriving
+                .iter()
+                .map(|&i| albedo_at(&material.coefficients.data()[i * channels + kd.start * m..i * channels + kd.end * m], m, t))
+                .collect();
+            std::array::from_fn(|c| albedos.iter().map(|a| a[c]).sum::<f32>() / n)
+        };
+        let colour = mean_at(timing.end_at);
         let total = timing.size.len();
         let strengths: Vec<f32> = arriving.iter().map(|&i| timing.size[i] / top).collect();
         let strength = if strengths.is_empty() { 1.0 } else { quantile(&strengths, 0.5) };
-        let start = material.evaluate(timing.start_at).select_channels(kd.clone()).map(|v| v.clamp(0.0, 1.0));
-        let bare = std::array::from_fn(|c| arriving.iter().map(|&i| start.data()[3 * i + c]).sum::<f32>() / n);
+        let bare = mean_at(timing.start_at);
         let mut pace = Pace { arrivals, share: arriving.len() as f32 / total.max(1) as f32, colour, strength, opacity: 0.0, bare, top };
         pace.opacity = arriving.iter().map(|&i| pace.own(timing.size[i])).sum::<f32>() / n;
         pace
