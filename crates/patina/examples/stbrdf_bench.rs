@@ -5,6 +5,9 @@
 //! - Distance: the closed-form b^T H b (eq. 14) against 50-sample
 //!   summation (eq. 15), per 7-parameter degree-3 texel pair.
 //! - Fit: 512 x 512 x 50 time steps x 7 channels, degree 3.
+//! - Registration (before fitting a capture whose camera shakes): 100
+//!   frames of 256 x 256 cut from a rusting time-lapse at offsets of up to
+//!   16 px, and whether every offset is found exactly.
 //! - Enlarge: a 128 x 128 degree-3 drying-wood material to 512 x 512.
 //! - Transfer (grow mode): a 128 x 128 rusting time-lapse, fitted at degree
 //!   3, onto a 512 x 512 texture.
@@ -12,6 +15,7 @@
 mod common;
 
 use common::peak_rss_mib;
+use patina::image::register::Registration;
 use patina::stbrdf::poly::{sampled_distance, PolyDistance};
 use patina::stbrdf::procedural::{drying_wood, drying_wood_at, drying_wood_params};
 use patina::stbrdf::transfer::{transfer, TransferParams};
@@ -54,6 +58,27 @@ fn main() {
         fitted.rms.iter().copied().fold(0.0f32, f32::max)
     );
     drop(frames);
+
+    // A shaking camera: frame i is the rusting sequence's frame i seen
+    // through a 256 x 256 window at a pseudo-random place within 16 px.
+    let canvas = patina::samples::rusting_timelapse(272, 272, 100, 7);
+    let moves: Vec<[i32; 2]> = (0..100).map(|i: i32| [(i * 7919) % 17, (i * 104_729) % 17]).collect();
+    let shaking: Vec<_> = canvas
+        .iter()
+        .zip(&moves)
+        .map(|(f, m)| patina::Image::from_fn(256, 256, 3, |x, y, p| p.copy_from_slice(&f.pixel(x + m[0] as usize, y + m[1] as usize)[..3])))
+        .collect();
+    drop(canvas);
+    let t = Instant::now();
+    let registration = Registration::of(&shaking, 0..3).expect("registration");
+    let exact = registration.offsets.iter().zip(&moves).filter(|(o, m)| **o == [moves[0][0] - m[0], moves[0][1] - m[1]]).count();
+    println!(
+        "| register 100 frames of 256x256 (moves up to 16 px) | {:.0} ms | {exact} of 100 offsets exact; window {}x{} |",
+        t.elapsed().as_secs_f64() * 1000.0,
+        registration.window[2],
+        registration.window[3]
+    );
+    drop(shaking);
 
     let (small, small_times) = drying_wood(128, 128, 11, 3);
     let wood = fit(&small, &small_times, 3, drying_wood_params()).expect("fit").material;
