@@ -200,7 +200,7 @@ pub fn age_map_within(img: &Image, params: &AgeParams, within: Option<&Mask>) ->
     let k = params.k_for(inside_count);
     let covers = within.is_none_or(|m| m.count() as f32 >= PERIODIC_COVER * (w * h) as f32);
     let periodicity = if params.regular && covers { tiles::periods(img) } else { None };
-    let (i_max, g_max) = distance_scales(&features, n, (pw, ph));
+    let (i_max, g_max) = distance_scales(&features, n, (pw, ph), &inside);
     let minima = cell_minima(&features, n, (pw, ph), (i_max, g_max), &inside);
     let cell_ages = match params.prevalence {
         Prevalence::Coverage => coverage_ages(&minima, n, pw.min(ph), &inside),
@@ -298,18 +298,30 @@ fn cell_template(img: &Image, i: usize, j: usize, (pw, ph): (usize, usize)) -> V
     img.crop(i * pw, j * ph, pw, ph).expect("cells lie inside the image").into_data()
 }
 
-/// max I and max G over a regular subset of the source patches.
-fn distance_scales(f: &Features, n: usize, patch: (usize, usize)) -> (f32, f32) {
+/// max I and max G over a regular subset of the source patches on the
+/// surface (`inside`, as [`cells_inside`] gives it), each against the
+/// placements centred in cells on the surface: a background must not set
+/// the scale that balances the two terms of D.
+fn distance_scales(f: &Features, n: usize, (pw, ph): (usize, usize), inside: &[bool]) -> (f32, f32) {
     let stride = n.div_ceil((SCALE_SAMPLES as f64).sqrt() as usize).max(1);
-    let cells: Vec<(usize, usize)> = (0..n).step_by(stride).flat_map(|j| (0..n).step_by(stride).map(move |i| (i, j))).collect();
+    let mut cells: Vec<(usize, usize)> =
+        (0..n).step_by(stride).flat_map(|j| (0..n).step_by(stride).map(move |i| (i, j))).filter(|&(i, j)| inside[j * n + i]).collect();
+    if cells.is_empty() {
+        // A small surface the regular subset misses: every cell on it.
+        cells = (0..n * n).filter(|&c| inside[c]).map(|c| (c % n, c / n)).collect();
+    }
+    let (w, h) = f.appearance.size();
+    let (vw, vh) = (w - pw + 1, h - ph + 1);
+    let on = |x: usize, y: usize| inside[((y + ph / 2) / ph).min(n - 1) * n + ((x + pw / 2) / pw).min(n - 1)];
+    let placements: Vec<bool> = (0..vw * vh).map(|k| on(k % vw, k / vw)).collect();
     let max_of = |img: &Image| -> f32 {
         let spectral = SpectralSource::new(img, &vec![1.0; img.channels()]);
         let maxima: Vec<f32> = cells
             .par_iter()
             .map(|&(i, j)| {
-                let mut q = spectral.query(patch.0, patch.1);
-                spectral.add_box_term(&mut q, &cell_template(img, i, j, patch), 1.0);
-                spectral.finish(&mut q).into_iter().fold(0.0, f32::max)
+                let mut q = spectral.query(pw, ph);
+                spectral.add_box_term(&mut q, &cell_template(img, i, j, (pw, ph)), 1.0);
+                spectral.finish(&mut q).into_iter().zip(&placements).filter(|(_, &b)| b).fold(0.0f32, |m, (v, _)| m.max(v))
             })
             .collect();
         maxima.into_iter().fold(0.0, f32::max).max(1e-12)
@@ -904,4 +916,38 @@ fn density_distance(appearance: &Image, patch: usize, within: Option<&Mask>) -> 
     });
     let cost = Image::from_data(w, h, 1, rows).expect("sizes match");
     gaussian_blur(&cost, r as f32 * 0.5 + 0.5)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The scales that balance D's two terms come from the surface alone:
+    /// a stucco surface (the left 40% of the picture, cut on cell
+    /// boundaries, with stucco on to 60% as the object band continues it)
+    /// gets the same max I and max G beside flat grey as beside loud
+    /// bricks. Until stop 69 the sampled cells and placements covered the
+    /// background too, and the bricks set both maxima.
+    #[test]
+    fn a_masked_surface_sets_its_own_distance_scales() {
+        let (n, side) = (10, 200);
+        let patch = (side / n, side / n);
+        let stucco = crate::samples::stucco(side, side, 3);
+        let bricks = crate::samples::bricks(side, side, 4);
+        let with_background = |loud: bool| {
+            Image::from_fn(side, side, 3, |x, y, p| match (x < 120, loud) {
+                (true, _) => p.copy_from_slice(stucco.pixel(x, y)),
+                (false, true) => p.copy_from_slice(bricks.pixel(x, y)),
+                (false, false) => p.fill(0.5),
+            })
+        };
+        let within = Mask::from_fn(side, side, |x, _| x < 80);
+        let inside = cells_inside(Some(&within), n, patch);
+        let scales = |img: &Image| distance_scales(&Features::new(img, true).unwrap(), n, patch, &inside);
+        let (quiet, loud) = (scales(&with_background(false)), scales(&with_background(true)));
+        assert_eq!(quiet, loud, "the background changed the scales");
+        let everywhere = vec![true; n * n];
+        let unmasked = distance_scales(&Features::new(&with_background(true), true).unwrap(), n, patch, &everywhere);
+        assert!(unmasked.0 > loud.0, "the whole picture's max I {} is not above the surface's {}", unmasked.0, loud.0);
+    }
 }
