@@ -7,6 +7,7 @@
 //! Each photo is scaled so its longer side is at most SIDE (default 512)
 //! and runs the whole method (age map, intact, 3 past and 3 future frames)
 //! in a child process, so its peak resident memory is its own. Columns:
+//! - s: the whole method's time; age, intact, past, future: its stages';
 //! - weathered: the fraction the automatic cut judged weathered;
 //! - pacing: the largest share of the intact -> input change that one of
 //!   the past steps brings ([`patina::metrics::pacing`]; even = 0.25);
@@ -28,7 +29,7 @@ use patina::image::resample::{resize, Filter};
 use patina::image::Mask;
 use patina::metrics::{bidirectional, pacing, reveal_spread, self_similarity};
 use patina::weather::rebuild::colour_distance;
-use patina::weather::{self, Growth, WeatherParams};
+use patina::weather::{self, Growth, Stage, WeatherParams};
 use std::process::Command;
 use std::time::Instant;
 
@@ -39,9 +40,21 @@ fn run_one(path: &str, side: usize, out: Option<&str>, growth: Growth) {
     let img = resize(&img.select_channels(0..img.channels().min(3)), w, h, Filter::Linear).expect("resize");
     let mut params = WeatherParams::default();
     params.sequence.growth = growth;
+    // When each stage ended (the last past and last future frame end theirs).
+    let ends = std::sync::Mutex::new([0f64; 4]);
     let t = Instant::now();
-    let r = weather::weather(&img, &params, Default::default(), 1, &|_| {}).expect("weather");
+    let r = weather::weather(&img, &params, Default::default(), 1, &|s| {
+        let stage = match s {
+            Stage::AgeMap => 0,
+            Stage::Intact => 1,
+            Stage::Past(..) => 2,
+            Stage::Future(..) => 3,
+        };
+        ends.lock().unwrap()[stage] = t.elapsed().as_secs_f64();
+    })
+    .expect("weather");
     let secs = t.elapsed().as_secs_f64();
+    let stages = ends.into_inner().unwrap();
     let frames: Vec<&patina::Image> = r.frames.iter().map(|f| &f.image).collect();
     let past = &frames[..=4];
     let pace = pacing(past).expect("pacing");
@@ -53,14 +66,19 @@ fn run_one(path: &str, side: usize, out: Option<&str>, growth: Growth) {
     let ageing = changed.count() as f32 / (w * h) as f32;
     let ss = self_similarity(input, 7, 3).expect("self-similarity").max(1e-6);
     let coh = bidirectional(last, input, 7, 3).expect("coherence").coherence / ss;
-    let old = Mask::from_fn(w, h, |x, y| colour_distance(input, &r.intact).unwrap()[y * w + x] > 0.1).dilate(8);
+    let from_intact = colour_distance(input, &r.intact).expect("distance");
+    let old = Mask::from_fn(w, h, |x, y| from_intact[y * w + x] > 0.1).dilate(8);
     let new_count = changed.count().max(1);
     let near = changed.bits().iter().zip(old.bits()).filter(|(c, o)| **c && **o).count();
     let front = near as f32 / new_count as f32;
     let weathered = r.weathered.map_or(f32::NAN, |w| w.1);
     let name = std::path::Path::new(path).file_stem().unwrap().to_string_lossy().to_string();
     println!(
-        "{name}\t{w}x{h}\t{secs:.1}\t{:.0}\t{weathered:.2}\t{pace:.2}\t{spread:.2}\t{ageing:.3}\t{coh:.2}\t{front:.2}",
+        "{name}\t{w}x{h}\t{secs:.1}\t{:.1}\t{:.1}\t{:.1}\t{:.1}\t{:.0}\t{weathered:.2}\t{pace:.2}\t{spread:.2}\t{ageing:.3}\t{coh:.2}\t{front:.2}",
+        stages[0],
+        stages[1] - stages[0],
+        stages[2] - stages[1],
+        stages[3] - stages[2],
         peak_rss_mib()
     );
     if let Some(dir) = out {
@@ -87,7 +105,7 @@ fn main() {
     let out = args.get(2);
     let mut photos: Vec<_> = std::fs::read_dir(dir).expect("photo folder").map(|e| e.unwrap().path()).collect();
     photos.sort();
-    println!("photo\tsize\ts\tMiB\tweathered\tpacing\tspread\tt1->t2\tcoh t2\tfront");
+    println!("photo\tsize\ts\tage\tintact\tpast\tfuture\tMiB\tweathered\tpacing\tspread\tt1->t2\tcoh t2\tfront");
     for p in photos {
         let mut cmd = Command::new(std::env::current_exe().unwrap());
         cmd.arg("--one").arg(&p).arg(&side);
