@@ -286,6 +286,15 @@ fn user_maps_replace_the_automatic_ones_and_bad_sizes_are_refused() {
     let small = Image::new(50, 50, 1);
     let e = weather::weather(&img, &p, Overrides { age: Some(&small), ..Default::default() }, 1, &|_| {}).unwrap_err();
     assert!(e.is_usage() && e.to_string().contains("age map"), "{e}");
+    // A grey intact texture of the photo's size, with and without a mask:
+    // the message gives the photo's size, not the mask's work area (which
+    // it gave with a mask until stop 69).
+    let grey = original.select_channels(0..1);
+    let part = patina::image::Mask::from_fn(96, 96, |x, y| (20..70).contains(&x) && (10..80).contains(&y));
+    for mask in [None, Some(&part)] {
+        let e = weather::weather(&img, &p, Overrides { intact: Some(&grey), mask, ..Default::default() }, 1, &|_| {}).unwrap_err();
+        assert!(e.is_usage() && e.to_string().contains("(96x96, 1 channels) must match the input (96x96, 3 channels)"), "{e}");
+    }
     let tiny = Image::new(12, 12, 3);
     let e = age_map(&tiny, &AgeParams::default()).unwrap_err();
     assert!(e.is_usage() && e.to_string().contains("too small"), "{e}");

@@ -194,6 +194,19 @@ pub fn weather_until(
     progress: &(dyn Fn(Stage) + Sync),
     until: Until,
 ) -> Result<Weathered> {
+    // Before any work, and against the whole photo (with a mask, `run`
+    // sees only the object's work area).
+    if let Some(i) = overrides.intact.filter(|i| i.size() != input.size() || i.channels() != input.channels()) {
+        return Err(Error::invalid(format!(
+            "the intact texture ({}x{}, {} channels) must match the input ({}x{}, {} channels)",
+            i.width(),
+            i.height(),
+            i.channels(),
+            input.width(),
+            input.height(),
+            input.channels()
+        )));
+    }
     let layers = resolve_layers(input, params.layers, overrides.labels, seed)?;
     let mask = match overrides.mask {
         Some(m) if m.size() != input.size() => {
@@ -268,20 +281,8 @@ fn run(
         return Ok(Weathered { age, age_grid, intact: input.clone(), lattice: None, weathered: None, flipped, layers, frames: Vec::new() });
     }
     let (intact_img, lattice, weathered) = match overrides.intact {
-        Some(i) => {
-            if i.size() != input.size() || i.channels() != input.channels() {
-                return Err(Error::invalid(format!(
-                    "the intact texture ({}x{}, {} channels) must match the input ({}x{}, {} channels)",
-                    i.width(),
-                    i.height(),
-                    i.channels(),
-                    input.width(),
-                    input.height(),
-                    input.channels()
-                )));
-            }
-            (i.clone(), None, None)
-        }
+        // Checked against the whole photo in `weather_until`.
+        Some(i) => (i.clone(), None, None),
         None => {
             let r = intact(input, &age, layers.as_ref(), &params.intact, within, crate::rng::derive(seed, &[1]))?;
             (r.image, r.lattice, Some((r.cut, r.weathered_fraction)))
