@@ -175,7 +175,7 @@ const MIN_EXPOSURE: f32 = 0.33;
 /// lightness (100 for an empty photo).
 pub fn scene_white(photo_lab: &Image) -> f32 {
     let mut lightness: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[0]).collect();
-    super::quantile(&mut lightness, SCENE_QUANTILE).unwrap_or(100.0)
+    crate::image::order::quantile(&mut lightness, SCENE_QUANTILE).unwrap_or(100.0)
 }
 
 /// Adapt a decay texture's own colours (Lab, in place) to the photo's
@@ -192,7 +192,7 @@ pub fn scene_white(photo_lab: &Image) -> f32 {
 /// Kries); under a bluish white it turned rust pink.
 pub fn adapt_to_scene(texture_lab: &mut Image, photo_lab: &Image) {
     let mut chroma: Vec<f32> = photo_lab.data().chunks_exact(3).map(|p| p[1].hypot(p[2])).collect();
-    let scene = super::quantile(&mut chroma, SCENE_QUANTILE).unwrap_or(0.0);
+    let scene = crate::image::order::quantile(&mut chroma, SCENE_QUANTILE).unwrap_or(0.0);
     let cap = (SCENE_CHROMA_HEADROOM * scene).max(MIN_CHROMA_CAP);
     // Exposure: the scene's white (its 95th-percentile luminance) is
     // taken as a surface of albedo WHITE_ALBEDO; the texture, drawn with

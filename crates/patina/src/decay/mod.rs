@@ -89,14 +89,7 @@ const UNDER_A_COAT: [f32; 2] = [-10.0, 5.0];
 /// on a white Buddha cast (ratio 1.09) as white frosting.
 pub fn is_coated_white(photo_lab: &Image, mask: &Mask) -> bool {
     let mut object: Vec<f32> = photo_lab.data().chunks_exact(3).zip(mask.bits()).filter(|(_, &m)| m).map(|(p, _)| p[0]).collect();
-    quantile(&mut object, 0.95).unwrap_or(0.0) >= composite::scene_white(photo_lab)
-}
-
-/// The `q` quantile of `values` (the value at index floor((n - 1) q) in
-/// sorted order; `values` is reordered), or `None` when there are none.
-fn quantile(values: &mut [f32], q: f32) -> Option<f32> {
-    let k = ((values.len().checked_sub(1)?) as f32 * q) as usize;
-    Some(*values.select_nth_unstable_by(k, f32::total_cmp).1)
+    crate::image::order::quantile(&mut object, 0.95).unwrap_or(0.0) >= composite::scene_white(photo_lab)
 }
 
 /// The photo's recesses, in [0, 1]: where its fine relief ([`shading::relief`],

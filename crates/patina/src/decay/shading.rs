@@ -134,7 +134,7 @@ pub fn relief(photo: &Image, mask: &Mask, shading: &Image, strength: f32) -> Ima
 /// rust).
 pub fn with_gloss(shading: &Image, mask: &Mask, gloss: f32) -> Image {
     let mut inside: Vec<f32> = shading.data().iter().zip(mask.bits()).filter(|(_, &m)| m).map(|(v, _)| *v).collect();
-    let q = match super::quantile(&mut inside, HIGHLIGHT_QUANTILE) {
+    let q = match crate::image::order::quantile(&mut inside, HIGHLIGHT_QUANTILE) {
         Some(q) if gloss < 1.0 => HIGHLIGHT_MARGIN * q,
         _ => return shading.clone(),
     };

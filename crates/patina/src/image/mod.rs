@@ -16,6 +16,7 @@ pub mod grabcut;
 pub mod io;
 pub mod maxflow;
 pub mod noise;
+pub mod order;
 pub mod region;
 pub mod register;
 pub mod resample;

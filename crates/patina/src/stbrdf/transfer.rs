@@ -89,6 +89,7 @@ use super::poly::{evaluate, Fitter};
 use crate::error::{Error, Result};
 use crate::image::color::{linear_to_srgb, luminance, pixel_luminance, srgb_to_linear};
 use crate::image::filter::{equalize, gaussian_blur};
+use crate::image::order::median;
 use crate::image::stain::Transition;
 use crate::image::{Image, Mask};
 use crate::synth::{Init, OptimizeParams, Progress};
@@ -459,8 +460,7 @@ fn relative_change(material: &Material, kd: std::ops::Range<usize>, t0: f32) -> 
             *l = l.max((v - a).abs() / a.abs().max(RATIO_FLOOR));
         }
     }
-    let mid = largest.len() / 2;
-    *largest.select_nth_unstable_by(mid, f32::total_cmp).1
+    median(&mut largest).unwrap_or(0.0)
 }
 
 /// Eq. 16 (ratio) or the offset: the synthesized coefficients tied to the target at t0.

@@ -20,6 +20,7 @@
 //! overcast sky) still needs a hand mask.
 
 use crate::image::color::to_lab;
+use crate::image::order::median;
 use crate::image::resample::{resize, Filter};
 use crate::image::{filter, grabcut, region};
 use crate::image::{Image, Mask};
@@ -193,8 +194,8 @@ const HUE_BLUR: f32 = 1.5;
 pub fn plants(photo: &Image, object: &Mask) -> Mask {
     let (w, h) = object.size();
     let lab = to_lab(&photo.select_channels(0..3));
-    let channel = |c: usize| (0..w * h).filter(|&i| object.bits()[i]).map(|i| lab.data()[3 * i + c]).collect();
-    let (a0, b0) = (super::update::median(channel(1)), super::update::median(channel(2)));
+    let channel = |c: usize| (0..w * h).filter(|&i| object.bits()[i]).map(|i| lab.data()[3 * i + c]).collect::<Vec<f32>>();
+    let (a0, b0) = (median(&mut channel(1)).unwrap_or(0.0), median(&mut channel(2)).unwrap_or(0.0));
     let inner = object.erode(PLANT_MARGIN);
     let shifted = |x: usize, y: usize, share: f32| {
         let (da, db) = (lab.at(x, y, 1) - a0, lab.at(x, y, 2) - b0);

@@ -6,6 +6,7 @@
 use super::segment::Patch;
 use super::{bounds, set_pixels};
 use crate::image::filter::equalize;
+use crate::image::order::median;
 use crate::image::{Image, Mask};
 use crate::synth::poisson;
 use rayon::prelude::*;
@@ -356,9 +357,11 @@ impl GrainLevels {
         let (w, h, c) = (fine.width(), fine.height(), fine.channels());
         let energy = Image::from_fn(w, h, 1, |x, y, p| p[0] = fine.pixel(x, y).iter().map(|v| v * v).sum::<f32>() / c as f32);
         let amplitude = crate::image::filter::gaussian_blur(&energy, AMPLITUDE_SIGMA).map(|v| v.max(0.0).sqrt());
-        let levels: Vec<f32> =
-            patches.par_iter().map(|patch| median(patch.pixels.iter().map(|&p| amplitude.data()[p as usize]).collect())).collect();
-        let typical = median(levels.clone());
+        let levels: Vec<f32> = patches
+            .par_iter()
+            .map(|patch| median(&mut patch.pixels.iter().map(|&p| amplitude.data()[p as usize]).collect::<Vec<f32>>()).unwrap_or(0.0))
+            .collect();
+        let typical = median(&mut levels.clone()).unwrap_or(0.0);
         let mut map = Image::new(w, h, 1);
         let mut weight = Image::new(w, h, 1);
         for (patch, &level) in patches.iter().zip(&levels) {
@@ -378,17 +381,6 @@ impl GrainLevels {
         } else {
             (tau + wt * (a - tau)) / a
         }
-    }
-}
-
-/// The upper median of `values` (the element at index len / 2 in sorted
-/// order), 0 when there are none.
-pub(crate) fn median(mut values: Vec<f32>) -> f32 {
-    let mid = values.len() / 2;
-    if values.is_empty() {
-        0.0
-    } else {
-        *values.select_nth_unstable_by(mid, f32::total_cmp).1
     }
 }
 

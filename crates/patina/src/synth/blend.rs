@@ -13,6 +13,7 @@
 //! screened Poisson solver ([`poisson::Solver`]).
 
 use super::poisson;
+use crate::image::order::median;
 use crate::image::{Image, Mask};
 use rayon::prelude::*;
 
@@ -195,10 +196,7 @@ fn clamp_outliers(mh: &mut [f32], mv: &mut [f32], sources: &[(u32, u32)], w: usi
             seams.entry(key(i, horizontal)).or_default().push(v);
         }
     }
-    let median = |v: &mut [f32]| {
-        let mid = v.len() / 2;
-        *v.select_nth_unstable_by(mid, f32::total_cmp).1
-    };
+    let median = |v: &mut [f32]| median(v).unwrap_or(0.0);
     let bands: std::collections::BTreeMap<_, (f32, f32)> = seams
         .into_iter()
         .map(|(k, mut v)| {

@@ -29,6 +29,7 @@
 //! white. Bright content under the streak loses its lift with it.
 
 use crate::image::filter::gaussian_blur;
+use crate::image::order::median;
 use crate::image::region::components;
 use crate::image::{Image, Mask};
 use rayon::prelude::*;
@@ -115,8 +116,7 @@ fn surroundings(low: &Image, wide: f32, exclude: Option<&[f32]>) -> Vec<f32> {
             if buf.len() < 5 {
                 window(true, buf);
             }
-            let mid = buf.len() / 2;
-            *buf.select_nth_unstable_by(mid, f32::total_cmp).1
+            median(buf).unwrap_or(0.0)
         })
         .collect();
     let at = |u: f32, n: usize| {

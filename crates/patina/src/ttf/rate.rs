@@ -20,6 +20,7 @@
 use crate::error::{Error, Result};
 use crate::image::color::luminance;
 use crate::image::filter::gaussian_blur;
+use crate::image::order::quantile;
 use crate::image::Image;
 
 /// A per-pixel rate map over the output (one channel, values >= 0).
@@ -92,8 +93,7 @@ impl RateMap {
             p[0] = 4.0 * at(x, y) - at(x - 1, y) - at(x + 1, y) - at(x, y - 1) - at(x, y + 1);
         });
         let mut mags: Vec<f32> = kappa.data().iter().map(|v| v.abs()).collect();
-        let i = ((mags.len() - 1) as f32 * 0.98) as usize;
-        let k98 = *mags.select_nth_unstable_by(i, f32::total_cmp).1;
+        let k98 = quantile(&mut mags, 0.98).unwrap_or(0.0);
         if k98 <= 0.0 {
             return Err(Error::invalid("the height map is flat: it has no curvature to set rates from"));
         }

@@ -35,6 +35,7 @@ use super::features::Features;
 use super::tiles::{self, Periodicity};
 use crate::error::{Error, Result};
 use crate::image::filter::gaussian_blur;
+use crate::image::order::{median, quantile};
 use crate::image::resample::{resize, Filter};
 use crate::image::summed::SummedArea;
 use crate::image::{Image, Mask};
@@ -253,14 +254,7 @@ pub fn age_map_within(img: &Image, params: &AgeParams, within: Option<&Mask>) ->
 /// `hi_q` quantile of `values` to 1, clamped: robust to a few extreme
 /// pixels at the top and to the spread of ordinary material at the bottom.
 pub(crate) fn rescale(values: &mut [f32], reference: &[f32], lo_q: f32, hi_q: f32) {
-    let quantile = |v: &[f32], q: f32| -> f32 {
-        let mut s = v.to_vec();
-        let i = ((s.len().max(1) - 1) as f32 * q) as usize;
-        if s.is_empty() {
-            return 0.0;
-        }
-        *s.select_nth_unstable_by(i, f32::total_cmp).1
-    };
+    let quantile = |v: &[f32], q: f32| quantile(&mut v.to_vec(), q).unwrap_or(0.0);
     let lo = quantile(reference, lo_q);
     let hi = quantile(values, hi_q);
     values.iter_mut().for_each(|v| *v = if hi > lo { ((*v - lo) / (hi - lo)).clamp(0.0, 1.0) } else { 0.0 });
@@ -473,17 +467,8 @@ fn coverage_ages(minima: &[Vec<f32>], n: usize, cell: usize, inside: &[bool]) ->
     // the texture nearly repeats itself: every cell's best matches are
     // near-exact twins, so ordinary matches elsewhere counted as none (a
     // clean brick wall texture that repeats once came out 60% weathered).
-    let mut typical: Vec<f32> = regional
-        .iter()
-        .filter(|m| !m.is_empty())
-        .map(|m| {
-            let mut m = m.clone();
-            let mid = m.len() / 2;
-            *m.select_nth_unstable_by(mid, f32::total_cmp).1
-        })
-        .collect();
-    let mid = typical.len() / 2;
-    let floor = if typical.is_empty() { 0.0 } else { *typical.select_nth_unstable_by(mid, f32::total_cmp).1 };
+    let mut typical: Vec<f32> = regional.iter().filter(|m| !m.is_empty()).filter_map(|m| median(&mut m.clone())).collect();
+    let floor = median(&mut typical).unwrap_or(0.0);
     // A surface within a single region has no other region to be missing
     // from: nothing on it counts as rare at this scale.
     let mut ages = regional.iter().zip(&own).map(|(m, &o)| {
@@ -825,12 +810,10 @@ fn detail_term(f: &Features, coarse: &Image, patch: usize, within: Option<&Mask>
     // Distance to reference material.
     let on = |i: usize| within.is_none_or(|m| m.bits()[i]);
     let mut ages: Vec<f32> = coarse.data().iter().enumerate().filter(|&(i, _)| on(i)).map(|(_, v)| *v).collect();
-    let mid = ages.len() / 2;
-    let median = *ages.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let median = median(&mut ages).unwrap_or(0.0);
     let colour = colour_density(appearance, within);
     let mut sorted: Vec<f32> = colour.iter().enumerate().filter(|&(i, _)| on(i)).map(|(_, v)| *v).collect();
-    let at = ((sorted.len() - 1) as f32 * RARE_COLOURS) as usize;
-    let rare = *sorted.select_nth_unstable_by(at, f32::total_cmp).1;
+    let rare = quantile(&mut sorted, RARE_COLOURS).unwrap_or(0.0);
     let dense = out.clone();
     let pool =
         Mask::from_fn(w, h, |x, y| on(y * w + x) && coarse.at(x, y, 0) <= median && colour[y * w + x] > rare && dense.at(x, y, 0) <= 0.0);

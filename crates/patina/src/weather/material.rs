@@ -37,6 +37,7 @@
 use super::age::ColourBins;
 use super::intact::{values_within, weathered_cut};
 use crate::image::filter::gaussian_blur;
+use crate::image::order::median;
 use crate::image::{Image, Mask};
 
 /// Erosion of each class's seeds, in pixels.
@@ -90,8 +91,7 @@ pub fn complete_regions(appearance: &Image, age: &Image, max_fraction: f32, with
     });
     let ratio = gaussian_blur(&ratio, REGION_SIGMA);
     let mut seed_ages: Vec<f32> = age.data().iter().zip(weathered.bits()).filter(|(_, &b)| b).map(|(a, _)| *a).collect();
-    let mid = seed_ages.len() / 2;
-    let target = *seed_ages.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let target = median(&mut seed_ages).unwrap_or(0.0);
     let mut out = age.clone();
     for (a, r) in out.data_mut().iter_mut().zip(ratio.data()) {
         let t = ((r - RATIO_LOW) / (RATIO_HIGH - RATIO_LOW)).clamp(0.0, 1.0);

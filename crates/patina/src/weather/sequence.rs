@@ -31,6 +31,7 @@
 use super::rebuild::{colour_distance, delta_scale, pixel_distance, rebuild, Engine, RebuildParams};
 use crate::error::{Error, Result};
 use crate::image::filter::{gaussian_blur, gradients, orientation};
+use crate::image::order::median;
 use crate::image::summed::SummedArea;
 use crate::image::{Image, Mask};
 use crate::rng::{self, Rng};
@@ -286,16 +287,7 @@ fn colony_seeds(labels: &[u32], count: usize, smooth: &Image, depth: &[f32], w: 
             per[l as usize].push(age(i));
         }
     }
-    let floor: Vec<f32> = per
-        .iter_mut()
-        .map(|v| {
-            if v.is_empty() {
-                return f32::INFINITY;
-            }
-            let k = v.len() / 2;
-            *v.select_nth_unstable_by(k, f32::total_cmp).1 + COLONY_MARGIN
-        })
-        .collect();
+    let floor: Vec<f32> = per.iter_mut().map(|v| median(v).map_or(f32::INFINITY, |m| m + COLONY_MARGIN)).collect();
     (0..w * h)
         .filter(|&i| wide(labels[i]) && depth[i] >= COLONY_DEPTH && age(i) >= floor[labels[i] as usize])
         .filter(|&i| {

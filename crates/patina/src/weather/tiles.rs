@@ -15,6 +15,7 @@
 
 use super::features;
 use crate::image::filter;
+use crate::image::order::median;
 use crate::image::{Image, Mask};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -233,12 +234,7 @@ pub fn median_translates(img: &Image, vectors: &[[f32; 2]], allowed: Option<&Mas
             }
             for c in 0..n {
                 let v = &mut values[c];
-                row[x * n + c] = if v.is_empty() {
-                    img.at(x, y, c)
-                } else {
-                    let mid = v.len() / 2;
-                    *v.select_nth_unstable_by(mid, f32::total_cmp).1
-                };
+                row[x * n + c] = median(v).unwrap_or_else(|| img.at(x, y, c));
             }
         }
     });
