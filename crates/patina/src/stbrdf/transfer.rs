@@ -644,11 +644,12 @@ impl Pace {
         let (m, channels) = (material.degree + 1, material.coefficients.channels());
         let n = arriving.len().max(1) as f32;
         let mean_at = |t: f32| -> [f32; 3] {
-            let albedos: Vec<[f32; 3]> = arriving
-                .iter()
-                .map(|&i| albedo_at(&material.coefficients.data()[i * channels + kd.start * m..i * channels + kd.end * m], m, t))
-                .collect();
-            std::array::from_fn(|c| albedos.iter().map(|a| a[c]).sum::<f32>() / n)
+            let sum = arriving.iter().fold([0f32; 3], |mut sum, &i| {
+                let a = albedo_at(&material.coefficients.data()[i * channels + kd.start * m..i * channels + kd.end * m], m, t);
+                sum.iter_mut().zip(a).for_each(|(s, v)| *s += v);
+                sum
+            });
+            sum.map(|s| s / n)
         };
         let colour = mean_at(timing.end_at);
         let total = timing.size.len();

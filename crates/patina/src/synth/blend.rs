@@ -196,13 +196,12 @@ fn clamp_outliers(mh: &mut [f32], mv: &mut [f32], sources: &[(u32, u32)], w: usi
             seams.entry(key(i, horizontal)).or_default().push(v);
         }
     }
-    let median = |v: &mut [f32]| median(v).unwrap_or(0.0);
     let bands: std::collections::BTreeMap<_, (f32, f32)> = seams
         .into_iter()
         .map(|(k, mut v)| {
-            let med = median(&mut v);
+            let med = median(&mut v).unwrap_or(0.0);
             let mut dev: Vec<f32> = v.iter().map(|x| (x - med).abs()).collect();
-            let spread = outlier * median(&mut dev).max(1e-3);
+            let spread = outlier * median(&mut dev).unwrap_or(0.0).max(1e-3);
             (k, (med - spread, med + spread))
         })
         .collect();

@@ -304,10 +304,8 @@ fn distance_scales(f: &Features, n: usize, (pw, ph): (usize, usize), inside: &[b
         // A small surface the regular subset misses: every cell on it.
         cells = (0..n * n).filter(|&c| inside[c]).map(|c| (c % n, c / n)).collect();
     }
-    let (w, h) = f.appearance.size();
-    let (vw, vh) = (w - pw + 1, h - ph + 1);
-    let on = |x: usize, y: usize| inside[((y + ph / 2) / ph).min(n - 1) * n + ((x + pw / 2) / pw).min(n - 1)];
-    let placements: Vec<bool> = (0..vw * vh).map(|k| on(k % vw, k / vw)).collect();
+    let (cell_x, cell_y) = placement_cells(f.appearance.size(), n, (pw, ph));
+    let placements: Vec<bool> = cell_y.iter().flat_map(|&j| cell_x.iter().map(move |&i| inside[j * n + i])).collect();
     let max_of = |img: &Image| -> f32 {
         let spectral = SpectralSource::new(img, &vec![1.0; img.channels()]);
         let maxima: Vec<f32> = cells
@@ -354,16 +352,23 @@ fn nearest_inside(values: &[f32], n: usize, inside: &[bool]) -> Vec<f32> {
         .collect()
 }
 
+/// The grid cell of each `patch`-sized placement in an image of `size`,
+/// by the placement's centre (the last cell for centres past the grid):
+/// its column per placement x (left edge) and its row per placement y
+/// (top edge).
+fn placement_cells((w, h): (usize, usize), n: usize, (pw, ph): (usize, usize)) -> (Vec<usize>, Vec<usize>) {
+    let cells = |len: usize, p: usize| (0..len - p + 1).map(|v| ((v + p / 2) / p).min(n - 1)).collect();
+    (cells(w, pw), cells(h, ph))
+}
+
 /// Per source cell, the minimum of D over the placements centred in each
 /// grid cell, row-major (its own cell and the cells off the surface
 /// infinite; a cell off the surface is not compared at all).
 fn cell_minima(f: &Features, n: usize, (pw, ph): (usize, usize), (i_max, g_max): (f32, f32), inside: &[bool]) -> Vec<Vec<f32>> {
     let stacked = f.stacked();
     let spectral = SpectralSource::new(&stacked, &f.weights(i_max, g_max));
-    let (vw, vh) = (stacked.width() - pw + 1, stacked.height() - ph + 1);
-    // The grid cell of each placement, by the placement's centre.
-    let cell_x: Vec<usize> = (0..vw).map(|x| ((x + pw / 2) / pw).min(n - 1)).collect();
-    let cell_y: Vec<usize> = (0..vh).map(|y| ((y + ph / 2) / ph).min(n - 1)).collect();
+    let vw = stacked.width() - pw + 1;
+    let (cell_x, cell_y) = placement_cells(stacked.size(), n, (pw, ph));
     (0..n * n)
         .into_par_iter()
         .map(|c| {
@@ -467,7 +472,7 @@ fn coverage_ages(minima: &[Vec<f32>], n: usize, cell: usize, inside: &[bool]) ->
     // the texture nearly repeats itself: every cell's best matches are
     // near-exact twins, so ordinary matches elsewhere counted as none (a
     // clean brick wall texture that repeats once came out 60% weathered).
-    let mut typical: Vec<f32> = regional.iter().filter(|m| !m.is_empty()).filter_map(|m| median(&mut m.clone())).collect();
+    let mut typical: Vec<f32> = regional.iter().filter_map(|m| median(&mut m.clone())).collect();
     let floor = median(&mut typical).unwrap_or(0.0);
     // A surface within a single region has no other region to be missing
     // from: nothing on it counts as rare at this scale.
@@ -810,13 +815,14 @@ fn detail_term(f: &Features, coarse: &Image, patch: usize, within: Option<&Mask>
     // Distance to reference material.
     let on = |i: usize| within.is_none_or(|m| m.bits()[i]);
     let mut ages: Vec<f32> = coarse.data().iter().enumerate().filter(|&(i, _)| on(i)).map(|(_, v)| *v).collect();
-    let median = median(&mut ages).unwrap_or(0.0);
+    let median_age = median(&mut ages).unwrap_or(0.0);
     let colour = colour_density(appearance, within);
     let mut sorted: Vec<f32> = colour.iter().enumerate().filter(|&(i, _)| on(i)).map(|(_, v)| *v).collect();
     let rare = quantile(&mut sorted, RARE_COLOURS).unwrap_or(0.0);
     let dense = out.clone();
-    let pool =
-        Mask::from_fn(w, h, |x, y| on(y * w + x) && coarse.at(x, y, 0) <= median && colour[y * w + x] > rare && dense.at(x, y, 0) <= 0.0);
+    let pool = Mask::from_fn(w, h, |x, y| {
+        on(y * w + x) && coarse.at(x, y, 0) <= median_age && colour[y * w + x] > rare && dense.at(x, y, 0) <= 0.0
+    });
     // The floor comes from pixels whose whole patch is reference material
     // (a pixel next to a crack is in the pool but its patch holds the crack).
     let core = pool.erode(patch);
