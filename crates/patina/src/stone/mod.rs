@@ -348,7 +348,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         let weights = prep.borrowing.weights(&prep.mask, (p.k, t), &chips);
         let smoothed = update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.sources), &prep.borrowing)
             .map(|v| v.max(0.0).powf(GAMMA));
-        let smoothed = keep_colour(&smoothed, &prep.linear, &lit);
+        let smoothed = keep_shade(&keep_colour(&smoothed, &prep.linear, &lit), &prep.linear);
         let rough = if p.roughen { roughen::roughen(&smoothed, &focused, &fractal, p.nu, p.k, t) } else { smoothed };
         let rough = if p.pits { prep.own_pits.keep(&pits::pit(&rough, &focused, p.k, t, seed), p.k, t) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
@@ -444,6 +444,36 @@ fn keep_colour(worn: &Image, linear: &Image, lit: &Image) -> Image {
     })
 }
 
+/// The worn relief with its recesses kept in shade: where the update
+/// lightens the relief (the luminance blurred by [`GRAIN_SIGMA`]) above the
+/// photo's, only [`LIFT_SHARE`] of that lift is kept, and each pixel's
+/// colour is scaled by the same ratio (the grain on it keeps its contrast).
+///
+/// Not in the paper, whose Poisson update lowers a carving's ridges and
+/// raises its hollows alike. Weathered carvings keep dark hollows: grime
+/// and crust gather where rain does not wash, while the exposed ridges wear
+/// down. Raised evenly, the hollows between a Buddha's curls and around a
+/// slab's raised letters turned into a pale haze ("lifted shadows look like
+/// fog" in two blind reviews), a loss of contrast that reads as a washed
+/// or defocused photo rather than worn stone.
+fn keep_shade(worn: &Image, linear: &Image) -> Image {
+    let relief = |img: &Image| crate::image::filter::gaussian_blur(&luminance(img), GRAIN_SIGMA);
+    let (now, was) = (relief(worn), relief(linear));
+    let lum = luminance(worn);
+    let mut out = worn.clone();
+    out.data_mut().chunks_exact_mut(3).enumerate().for_each(|(i, px)| {
+        let (l, lift) = (lum.data()[i], now.data()[i] - was.data()[i]);
+        if lift > 0.0 && l > 1e-6 {
+            let ratio = ((l - (1.0 - LIFT_SHARE) * lift) / l).max(0.0);
+            px.iter_mut().for_each(|v| *v *= ratio);
+        }
+    });
+    out
+}
+
+/// Share of the wear's lift of the relief that [`keep_shade`] keeps.
+pub const LIFT_SHARE: f32 = 0.3;
+
 /// Lift (new over old luminance) up to which the wear keeps a pixel's own
 /// tint whole ([`keep_colour`]).
 const LIFT_KEEPS_TINT: f32 = 1.25;
@@ -528,6 +558,27 @@ pub fn match_luminance(image: &Image, reference: &Image, mask: &Mask, scale: f32
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A carving's groove and ridge both worn halfway flat: the groove
+    /// keeps most of its shade (only LIFT_SHARE of its lift), the ridge
+    /// wears down in full, and flat stone is untouched.
+    #[test]
+    fn worn_hollows_keep_their_shade_and_ridges_wear_down() {
+        let (w, h) = (96, 48);
+        let profile = |x: usize| match x {
+            20..32 => -0.2,
+            60..72 => 0.2,
+            _ => 0.0,
+        };
+        let photo = Image::from_fn(w, h, 3, |x, _, p| p.fill(0.4 + profile(x)));
+        let worn = Image::from_fn(w, h, 3, |x, _, p| p.fill(0.4 + 0.5 * profile(x)));
+        let kept = keep_shade(&worn, &photo);
+        let column = |img: &Image, x: usize| img.at(x, h / 2, 0);
+        let lift = column(&kept, 26) - column(&photo, 26);
+        assert!((lift - LIFT_SHARE * 0.1).abs() < 0.01, "the groove's centre rose by {lift}");
+        assert!((column(&kept, 66) - column(&worn, 66)).abs() < 1e-6, "the ridge wears as the update says");
+        assert!((column(&kept, 45) - 0.4).abs() < 1e-6 && (column(&kept, 90) - 0.4).abs() < 1e-6);
+    }
 
     #[test]
     fn stone_is_not_borrowed_from_the_band_along_the_outline_unless_the_object_is_small() {
