@@ -233,16 +233,25 @@ pub fn iterations(object_pixels: usize, epsilon: f32, t: f32) -> usize {
 /// say which colours belong where, and where the engine has too few
 /// source patches.
 pub fn fill_background(image: &Image, background: &Mask, eroded: &Mask) -> Image {
+    copy_background(image, background, eroded, 1.0)
+}
+
+/// `image` with each pixel p of `pixels` copied from the background pixel
+/// b + `reach` (b - p), for b the nearest background pixel (or b itself
+/// when that falls off the background): reach 1 mirrors across the
+/// outline ([`fill_background`]), 0 carries the nearest background in.
+fn copy_background(image: &Image, background: &Mask, pixels: &Mask, reach: f32) -> Image {
     let (w, h) = image.size();
     let nearest = nearest_set(background);
     let mut out = image.clone();
-    for p in set_pixels(eroded) {
+    for p in set_pixels(pixels) {
         let b = nearest[p];
         if b == u32::MAX {
             continue;
         }
         let (px, py, bx, by) = ((p % w) as isize, (p / w) as isize, (b as usize % w) as isize, (b as usize / w) as isize);
-        let (mx, my) = (2 * bx - px, 2 * by - py);
+        let step = |b: isize, p: isize| b + (reach * (b - p) as f32).round() as isize;
+        let (mx, my) = (step(bx, px), step(by, py));
         let mirrored = mx >= 0 && my >= 0 && mx < w as isize && my < h as isize && background.get(mx as usize, my as usize);
         let (sx, sy) = if mirrored { (mx as usize, my as usize) } else { (bx as usize, by as usize) };
         let source = image.pixel(sx, sy).to_vec();
@@ -261,6 +270,10 @@ pub const FILL_SOURCE: usize = 20;
 /// ghost of the old outline.
 pub const RIM_SKIP: usize = 2;
 
+/// How far beyond the outline the colour guide looks, as a share of a
+/// hole pixel's depth ([`synthesize_background`]).
+pub const GUIDE_REACH: f32 = 0.5;
+
 /// Blur (px) of the colour guide ([`synthesize_background`]).
 pub const GUIDE_SIGMA: f32 = 3.0;
 
@@ -271,12 +284,20 @@ pub const FILL_CELL: usize = 64;
 /// by the engine, as the paper fills by texture synthesis: a hole-filling
 /// texture optimization (7 px patches, robust votes, coherent copies kept
 /// verbatim) from the background between [`RIM_SKIP`] and [`FILL_SOURCE`]
-/// px beyond the object, guided (image analogies, weight 1) by the mirror
-/// fill ([`fill_background`]) blurred by [`GUIDE_SIGMA`]: the guide says
-/// which colours belong where (marker black beside the marker, table tan
-/// beside the table), the patches give the texture without the mirror's
-/// chevrons. The hole is a thin band along the outline, so the work goes
-/// cell by cell ([`FILL_CELL`] px, in raster order), each on a crop
+/// px beyond the object, guided (image analogies, weight 1) by the
+/// background carried in ([`GUIDE_REACH`]: a hole pixel d px deep takes
+/// the background d / 2 px beyond the outline) blurred by [`GUIDE_SIGMA`]:
+/// the guide says which colours belong where (marker black beside the
+/// marker, table tan beside the table), the patches give the texture
+/// without the copy's chevrons. The standing stone beside the hole is
+/// seen as that carried-in background too: as context, its light colour
+/// drew the fill towards it. A full mirror (d px beyond) reached past a
+/// thin dark line of soil along a granite slab's top into the dead leaves
+/// behind it, and the revealed band came out as a pale tan ghost of the
+/// old outline (blind review); the nearest background itself (0 px
+/// beyond) drew sky blobs in as pillars.
+///
+/// The hole is a thin band along the outline, so the work goes cell by cell ([`FILL_CELL`] px, in raster order), each on a crop
 /// reaching [`FILL_SOURCE`] px around it, with the cells filled before it
 /// as fixed context so the band continues across cell borders (the hole of
 /// the cells after it is filled too, and filled again in its turn). A cell
@@ -284,9 +305,14 @@ pub const FILL_CELL: usize = 64;
 /// `hole` are `image`'s.
 pub fn synthesize_background(image: &Image, background: &Mask, hole: &Mask, seed: u64) -> crate::error::Result<Image> {
     let (w, h) = image.size();
-    let mut out = image.clone();
     let near_object = Mask::from_fn(w, h, |x, y| !background.get(x, y)).dilate(RIM_SKIP);
     let mirror = fill_background(image, background, hole);
+    // The guide, and the context the patches overlapping the standing
+    // stone beside the hole see: the background carried in.
+    let near_hole = hole.dilate(FILL_PATCH);
+    let beside = Mask::from_fn(w, h, |x, y| near_hole.get(x, y) && !background.get(x, y));
+    let extended = copy_background(image, background, &beside, GUIDE_REACH);
+    let mut out = extended.clone();
     let margin = FILL_SOURCE + 4;
     let op = crate::synth::OptimizeParams { patch: FILL_PATCH, vote: crate::synth::VoteWeights::Robust, ..Default::default() };
     for cy in (0..h).step_by(FILL_CELL) {
@@ -312,7 +338,7 @@ pub fn synthesize_background(image: &Image, background: &Mask, hole: &Mask, seed
             let synthesized = if sources.erode(3).count() >= 64 && cw >= 16 && ch >= 16 {
                 let crop = out.crop(x0, y0, cw, ch)?;
                 let guide_source = crate::image::filter::gaussian_blur(&crop, GUIDE_SIGMA);
-                let guide_target = crate::image::filter::gaussian_blur(&mirror.crop(x0, y0, cw, ch)?, GUIDE_SIGMA);
+                let guide_target = crate::image::filter::gaussian_blur(&extended.crop(x0, y0, cw, ch)?, GUIDE_SIGMA);
                 let mut filled = crate::synth::Synthesis::new(&crop)
                     .fill(&crop, &open)
                     .source_mask(&sources)
@@ -332,6 +358,12 @@ pub fn synthesize_background(image: &Image, background: &Mask, hole: &Mask, seed
                 };
                 out.pixel_mut(x + x0, y + y0).copy_from_slice(value);
             }
+        }
+    }
+    for idx in set_pixels(&beside) {
+        if !hole.bits()[idx] {
+            let (x, y) = (idx % w, idx / w);
+            out.pixel_mut(x, y).copy_from_slice(image.pixel(x, y));
         }
     }
     Ok(blend_into_background(&out, background, hole))
@@ -448,6 +480,35 @@ fn nearest_set(set: &Mask) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Above a slab's top edge, a thin dark line of soil, then light dead
+    /// leaves further up (as above a granite slab): the band the slab's top
+    /// loses is filled dark, as the soil line continues behind it, not in
+    /// the leaves' tan from the far side of the line.
+    #[test]
+    fn a_thin_revealed_band_takes_the_colour_just_beyond_the_outline() {
+        let (w, h) = (160, 120);
+        let photo = Image::from_fn(w, h, 3, |x, y, p| {
+            let n = crate::samples::value_noise(7, x as f32 / 2.0, y as f32 / 2.0) - 0.5;
+            let v = match y {
+                0..26 => 0.6 + 0.2 * n,
+                26..40 => 0.08 + 0.04 * n,
+                _ => 0.85 + 0.1 * n,
+            };
+            p.copy_from_slice(&[v, v * 0.9, v * 0.7]);
+        });
+        // The object as a run sees it: the cut at row 40, dilated by 4
+        // (part of the soil line); the top 8 rows of stone are lost.
+        let background = Mask::from_fn(w, h, |_, y| y < 36);
+        let hole = Mask::from_fn(w, h, |_, y| (36..48).contains(&y));
+        let filled = synthesize_background(&photo, &background, &hole, 3).unwrap();
+        let mean = |rows: std::ops::Range<usize>| {
+            let n = (rows.len() * w) as f32;
+            rows.flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| filled.at(x, y, 0)).sum::<f32>() / n
+        };
+        let band = mean(40..46);
+        assert!(band < 0.15, "the revealed band's mean level is {band} (soil 0.08, leaves 0.6, stone 0.85)");
+    }
 
     #[test]
     fn a_thin_arm_thins_instead_of_tearing_through() {
