@@ -159,15 +159,25 @@ pub fn with_attached_shadow(lab: &Image, object: &Mask) -> Mask {
 /// trees behind it; eroded, the object around that bay went and the bay
 /// stood, a plate-coloured stub beside a grey puff (the fill borrowed the
 /// stub's colour). The colour test keeps the bays that are background:
-/// grass between the stones of a foot, sky in a carved notch.
+/// sky in a carved notch. Nothing joins in the object's lowest
+/// 2 [`super::erosion::FOOT`] of its height, where it stands in grass:
+/// the dark blades and their shadows between the cut's bays passed the
+/// colour test there, and a slate's foot weathered them as stone.
 pub fn with_notches_closed(lab: &Image, object: &Mask) -> Mask {
     let (w, h) = object.size();
     let around = Surroundings::new(lab, object);
     let radius = NOTCH_RADIUS * around.unit;
     let near = Mask::from_fn(w, h, |x, y| around.outside[y * w + x] <= radius);
     let closed = near.distance_inside();
+    // The foot meets the ground: grass blades cut the outline there into
+    // bays that are background.
+    let foot = super::bounds(super::set_pixels(object), w)
+        .map_or(h, |(_, top, _, bottom)| bottom.saturating_sub((2.0 * super::erosion::FOOT * (bottom - top + 1) as f32) as usize));
     let bays = Mask::from_fn(w, h, |x, y| {
         let i = y * w + x;
+        if y >= foot {
+            return false;
+        }
         let (Some(ring), Some(rim)) = (around.ring(i), around.rim(i)) else { return false };
         let own = around.lab.pixel(x, y);
         let distance = |m: &[f32]| own.iter().zip(m).map(|(a, b)| (a - b) * (a - b)).sum::<f32>();
@@ -529,7 +539,7 @@ mod tests {
     /// bay of its own stone missing at the top (as the cut missed a globe
     /// plate's tip), and with a bay of the same size that is background on
     /// its right (a carved notch the sky shows through): the first joins,
-    /// the second stays out.
+    /// the second stays out, as does a bay of stone at its foot.
     #[test]
     fn a_bay_of_stone_the_cut_missed_joins_and_a_bay_of_background_stays_out() {
         let (w, h) = (640, 480);
@@ -555,13 +565,21 @@ mod tests {
         });
         let at = |m: &dyn Fn(f32, f32) -> bool| Mask::from_fn(w, h, |x, y| m(x as f32 + 0.5, y as f32 + 0.5));
         let missed = at(&|x, y| on(x, y) && slot(x, y, false));
+        // The same bay at the bottom, where the object stands in the lawn.
+        let at_foot = at(&|x, y| on(x, y) && (x - cx).abs() < 4.0 && y > cy + r - 30.0);
         let truth = at(&on);
-        let cut = Mask::from_fn(w, h, |x, y| truth.get(x, y) && !missed.get(x, y));
+        let cut = Mask::from_fn(w, h, |x, y| truth.get(x, y) && !missed.get(x, y) && !at_foot.get(x, y));
         let mask = with_notches_closed(&to_lab(&photo), &cut);
         let within = |a: &Mask| (0..w * h).filter(|&i| a.bits()[i] && mask.bits()[i]).count();
         assert!(missed.count() > 150, "the test needs a bay ({} px)", missed.count());
         assert!(cut.bits().iter().zip(mask.bits()).all(|(&c, &m)| !c || m), "the cut is kept");
         assert!(within(&missed) * 10 >= missed.count() * 9, "{} of {} pixels of the missed bay", within(&missed), missed.count());
+        assert!(
+            at_foot.count() > 150 && within(&at_foot) == 0,
+            "{} of {} pixels of the bay at the foot",
+            within(&at_foot),
+            at_foot.count()
+        );
         let (notch, background) = (at(&carved), Mask::from_fn(w, h, |x, y| !truth.get(x, y)));
         assert!(
             notch.count() > 150 && within(&notch) * 20 <= notch.count(),
