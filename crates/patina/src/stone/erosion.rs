@@ -229,9 +229,8 @@ pub fn iterations(object_pixels: usize, epsilon: f32, t: f32) -> usize {
 /// other pixel of `image` is kept.
 ///
 /// Copied as it is, the mirror draws symmetric chevrons and bow ties in
-/// grass and foliage; [`synthesize_background`] uses it, blurred, only to
-/// say which colours belong where, and where the engine has too few
-/// source patches.
+/// grass and foliage; [`synthesize_background`] uses it only where the
+/// engine has too few source patches.
 pub fn fill_background(image: &Image, background: &Mask, eroded: &Mask) -> Image {
     copy_background(image, background, eroded, 1.0)
 }
@@ -297,10 +296,11 @@ pub const FILL_CELL: usize = 64;
 /// old outline (blind review); the nearest background itself (0 px
 /// beyond) drew sky blobs in as pillars.
 ///
-/// The hole is a thin band along the outline, so the work goes cell by cell ([`FILL_CELL`] px, in raster order), each on a crop
-/// reaching [`FILL_SOURCE`] px around it, with the cells filled before it
-/// as fixed context so the band continues across cell borders (the hole of
-/// the cells after it is filled too, and filled again in its turn). A cell
+/// The hole is a thin band along the outline, so the work goes cell by
+/// cell ([`FILL_CELL`] px, in raster order), each on a crop reaching
+/// [`FILL_SOURCE`] px around it, with the cells filled before it as fixed
+/// context so the band continues across cell borders (the hole of the
+/// cells after it is filled too, and filled again in its turn). A cell
 /// with too few whole source patches takes the mirror. Pixels outside
 /// `hole` are `image`'s.
 pub fn synthesize_background(image: &Image, background: &Mask, hole: &Mask, seed: u64) -> crate::error::Result<Image> {
