@@ -173,12 +173,17 @@ fn room_behind(object: &Mask) -> Mask {
 /// that background 2 of 5).
 fn standing(object: &Mask) -> Vec<f32> {
     let (w, h) = object.size();
-    let Some((_, top, _, bottom)) = super::bounds(set_pixels(object), w) else {
+    let Some((bottom, band)) = foot(object) else {
         return vec![1.0; w * h];
     };
-    let band = FOOT * (bottom - top + 1) as f32;
     let share = |y: usize| crate::image::noise::smoothstep(bottom as f32 - 2.0 * band, bottom as f32 - band, y as f32);
     (0..w * h).map(|i| 1.0 - share(i / w)).collect()
+}
+
+/// The object's lowest row and its foot's height in px ([`FOOT`] of the
+/// object's), or `None` for an empty object.
+pub(crate) fn foot(object: &Mask) -> Option<(usize, f32)> {
+    super::bounds(set_pixels(object), object.width()).map(|(_, top, _, bottom)| (bottom, FOOT * (bottom - top + 1) as f32))
 }
 
 /// Share of the object's height along its bottom that does not erode
@@ -232,16 +237,16 @@ pub fn iterations(object_pixels: usize, epsilon: f32, t: f32) -> usize {
 /// grass and foliage; [`synthesize_background`] uses it only where the
 /// engine has too few source patches.
 pub fn fill_background(image: &Image, background: &Mask, eroded: &Mask) -> Image {
-    copy_background(image, background, eroded, 1.0)
+    copy_background(image, (background, &nearest_set(background)), eroded, 1.0)
 }
 
 /// `image` with each pixel p of `pixels` copied from the background pixel
-/// b + `reach` (b - p), for b the nearest background pixel (or b itself
-/// when that falls off the background): reach 1 mirrors across the
-/// outline ([`fill_background`]), 0 carries the nearest background in.
-fn copy_background(image: &Image, background: &Mask, pixels: &Mask, reach: f32) -> Image {
+/// b + `reach` (b - p), for b the nearest background pixel (`nearest`, as
+/// [`nearest_set`] gives it; or b itself when that falls off the
+/// background): reach 1 mirrors across the outline ([`fill_background`]),
+/// 0 carries the nearest background in.
+fn copy_background(image: &Image, (background, nearest): (&Mask, &[u32]), pixels: &Mask, reach: f32) -> Image {
     let (w, h) = image.size();
-    let nearest = nearest_set(background);
     let mut out = image.clone();
     for p in set_pixels(pixels) {
         let b = nearest[p];
@@ -306,12 +311,13 @@ pub const FILL_CELL: usize = 64;
 pub fn synthesize_background(image: &Image, background: &Mask, hole: &Mask, seed: u64) -> crate::error::Result<Image> {
     let (w, h) = image.size();
     let near_object = Mask::from_fn(w, h, |x, y| !background.get(x, y)).dilate(RIM_SKIP);
-    let mirror = fill_background(image, background, hole);
+    let nearest = nearest_set(background);
+    let mirror = copy_background(image, (background, &nearest), hole, 1.0);
     // The guide, and the context the patches overlapping the standing
     // stone beside the hole see: the background carried in.
     let near_hole = hole.dilate(FILL_PATCH);
     let beside = Mask::from_fn(w, h, |x, y| near_hole.get(x, y) && !background.get(x, y));
-    let extended = copy_background(image, background, &beside, GUIDE_REACH);
+    let extended = copy_background(image, (background, &nearest), &beside, GUIDE_REACH);
     let mut out = extended.clone();
     let margin = FILL_SOURCE + 4;
     let op = crate::synth::OptimizeParams { patch: FILL_PATCH, vote: crate::synth::VoteWeights::Robust, ..Default::default() };

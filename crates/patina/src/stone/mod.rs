@@ -336,6 +336,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         None
     };
     let lit = lit_chromaticity(&prep.linear, &prep.mask, prep.scale);
+    let photo_relief = relief(&prep.linear);
     // The share of the weathering each standing pixel shows: none on the
     // rim ring (weathered as stone, the board or the shadow it half holds
     // turned into an orange fringe or a grey line where the foot kept it),
@@ -348,7 +349,7 @@ pub fn sequence(prep: &Prepared, times: &[f32], seed: u64, progress: Option<Prog
         let weights = prep.borrowing.weights(&prep.mask, (p.k, t), &chips);
         let smoothed = update::update((&prep.base, &prep.grain), &weights, (&prep.mask, &prep.sources), &prep.borrowing)
             .map(|v| v.max(0.0).powf(GAMMA));
-        let smoothed = keep_shade(&keep_colour(&smoothed, &prep.linear, &lit), &prep.linear);
+        let smoothed = keep_shade(&keep_colour(&smoothed, &prep.linear, &lit), &photo_relief);
         let rough = if p.roughen { roughen::roughen(&smoothed, &focused, &fractal, p.nu, p.k, t) } else { smoothed };
         let rough = if p.pits { prep.own_pits.keep(&pits::pit(&rough, &focused, p.k, t, seed), p.k, t) } else { rough };
         let (mut weathered, contrast) = match_luminance(&rough, &prep.linear, &prep.mask, prep.scale);
@@ -445,8 +446,8 @@ fn keep_colour(worn: &Image, linear: &Image, lit: &Image) -> Image {
 }
 
 /// The worn relief with its recesses kept in shade: where the update
-/// lightens the relief (the luminance blurred by [`GRAIN_SIGMA`]) above the
-/// photo's, only [`LIFT_SHARE`] of that lift is kept, and each pixel's
+/// lightens the relief ([`relief`]) above the photo's (`photo_relief`),
+/// only [`LIFT_SHARE`] of that lift is kept, and each pixel's
 /// colour is scaled by the same ratio (the grain on it keeps its contrast).
 ///
 /// Not in the paper, whose Poisson update lowers a carving's ridges and
@@ -456,10 +457,9 @@ fn keep_colour(worn: &Image, linear: &Image, lit: &Image) -> Image {
 /// slab's raised letters turned into a pale haze ("lifted shadows look like
 /// fog" in two blind reviews), a loss of contrast that reads as a washed
 /// or defocused photo rather than worn stone.
-fn keep_shade(worn: &Image, linear: &Image) -> Image {
-    let relief = |img: &Image| crate::image::filter::gaussian_blur(&luminance(img), GRAIN_SIGMA);
-    let (now, was) = (relief(worn), relief(linear));
+fn keep_shade(worn: &Image, photo_relief: &Image) -> Image {
     let lum = luminance(worn);
+    let (now, was) = (crate::image::filter::gaussian_blur(&lum, GRAIN_SIGMA), photo_relief);
     let mut out = worn.clone();
     out.data_mut().chunks_exact_mut(3).enumerate().for_each(|(i, px)| {
         let (l, lift) = (lum.data()[i], now.data()[i] - was.data()[i]);
@@ -469,6 +469,11 @@ fn keep_shade(worn: &Image, linear: &Image) -> Image {
         }
     });
     out
+}
+
+/// The relief [`keep_shade`] compares: luminance blurred by [`GRAIN_SIGMA`].
+fn relief(linear: &Image) -> Image {
+    crate::image::filter::gaussian_blur(&luminance(linear), GRAIN_SIGMA)
 }
 
 /// Share of the wear's lift of the relief that [`keep_shade`] keeps.
@@ -572,7 +577,7 @@ mod tests {
         };
         let photo = Image::from_fn(w, h, 3, |x, _, p| p.fill(0.4 + profile(x)));
         let worn = Image::from_fn(w, h, 3, |x, _, p| p.fill(0.4 + 0.5 * profile(x)));
-        let kept = keep_shade(&worn, &photo);
+        let kept = keep_shade(&worn, &relief(&photo));
         let column = |img: &Image, x: usize| img.at(x, h / 2, 0);
         let lift = column(&kept, 26) - column(&photo, 26);
         assert!((lift - LIFT_SHARE * 0.1).abs() < 0.01, "the groove's centre rose by {lift}");

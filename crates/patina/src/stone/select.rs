@@ -171,8 +171,7 @@ pub fn with_notches_closed(lab: &Image, object: &Mask) -> Mask {
     let closed = near.distance_inside();
     // The foot meets the ground: grass blades cut the outline there into
     // bays that are background.
-    let foot = super::bounds(super::set_pixels(object), w)
-        .map_or(h, |(_, top, _, bottom)| bottom.saturating_sub((2.0 * super::erosion::FOOT * (bottom - top + 1) as f32) as usize));
+    let foot = super::erosion::foot(object).map_or(h, |(bottom, band)| bottom.saturating_sub((2.0 * band) as usize));
     let bays = Mask::from_fn(w, h, |x, y| {
         let i = y * w + x;
         if y >= foot {
