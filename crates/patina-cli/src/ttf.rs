@@ -50,7 +50,7 @@ pub struct Args {
     /// Time jitter E (eqs. 6-7): each block's clock drifts randomly by at most E frames (less while the whole surface changes fast), so copies of one block do not change in lockstep; frame by frame a block follows its own drift where that is invisible and falls into step with its neighbours where a change crosses its seam (dynamic programming over eq. 6's steps), changes its drift (a held or skipped frame) seldom where it moves fast and hardly ever twice within 3 frames (no freezes), gives a lead back gradually before the last frame, and never shows a frame whose block-scale colour differs visibly (over 4%) from the output time's, so a fast change of the whole surface is not shown as a patchwork of times; times are whole frames; 0 = off [default: a twelfth of the frames]
     #[arg(long, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 2000.0))]
     pub jitter: Option<f32>,
-    /// Lighting (section 5.3): keep = quilt the frames as they are; flat = divide out the illumination (the frames' mean field, such as a vignette or a flash hot-spot, plus each frame's slow drift), the capture's exposure flicker and a specular streak fixed in the frame, quilt the detail and light the output evenly; stretch = the same, then put the input's lighting back stretched to the output; auto = flat when the input's large-scale variation is above 0.08 and its shorter side at least 96 px, else keep.
+    /// Lighting (section 5.3): keep = quilt the frames as they are; flat = divide out the illumination (the frames' mean field, such as a vignette or a flash hot-spot, plus each frame's slow drift), the capture's exposure flicker, a specular streak fixed in the frame and the first frame's light (a polished plate's reflections, on a smooth first frame) where later frames still show it, quilt the detail and light the output evenly; stretch = the same, then put the input's lighting back stretched to the output; auto = flat when the input's large-scale variation is above 0.08 and its shorter side at least 96 px, else keep.
     #[arg(long, value_enum, default_value_t = LightingArg::Auto)]
     pub lighting: LightingArg,
     /// Join blocks with the paper's cut only: no gradient-domain blending of the seams.
@@ -315,6 +315,9 @@ pub fn run(args: Args) -> Result<()> {
     }
     if let Some(h) = &result.highlight {
         manifest.metrics.insert("highlight_removed".into(), json!(h));
+    }
+    if let Some(s) = &result.start_light {
+        manifest.metrics.insert("start_light_removed".into(), json!(s));
     }
     manifest.metrics.insert("flicker_input".into(), json!(patina::metrics::flicker(&frames)));
     manifest.metrics.insert("flicker_output".into(), json!(patina::metrics::flicker(&result.frames)));

@@ -25,6 +25,7 @@ pub mod poisson;
 pub mod problem;
 pub mod quilt;
 pub mod rarity;
+pub mod start_light;
 mod torus;
 pub mod vote;
 

@@ -31,9 +31,11 @@
 //!   quilted, and the output is re-lit (flat by default). Automatic when
 //!   the input's large-scale variation is high. The same separation takes
 //!   out the capture's exposure flicker
-//!   ([`crate::synth::lighting::steady_exposure`]) and a specular streak
-//!   fixed in the frame ([`crate::synth::highlight`]), which quilting
-//!   would otherwise paste with every block.
+//!   ([`crate::synth::lighting::steady_exposure`]), a specular streak
+//!   fixed in the frame ([`crate::synth::highlight`]) and the first
+//!   frame's light where later frames still show it
+//!   ([`crate::synth::start_light`]), which quilting would otherwise paste
+//!   with every block.
 //! - Material shares kept to the input's ([`FAMILIES`]): a minority
 //!   material the reuse penalty would starve is favoured again.
 //! - Seams hidden in the gradient domain ([`crate::synth::blend`]), their
@@ -57,6 +59,7 @@ use crate::image::Mask;
 use crate::rng;
 use crate::synth::highlight::{remove_fixed_highlight, HighlightReport};
 use crate::synth::lighting::{relight_sequence, separate_sequence, sequence_luminance, steady_exposure, LightingReport, Relight};
+use crate::synth::start_light::{remove_start_light, StartLightReport};
 use crate::synth::{Init, OptimizeParams, PatchMetric, Progress, QuiltParams, QuiltPlan, Synthesis};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -265,6 +268,9 @@ pub struct Ttf {
     /// frame ([`crate::synth::lighting::steady_exposure`]), as |gain - 1|;
     /// 0 without a separation.
     pub exposure_flicker: f32,
+    /// The first frame's light the lighting separation took out
+    /// ([`crate::synth::start_light`]); `None` without a separation.
+    pub start_light: Option<StartLightReport>,
     /// `None` when every frame was compared (`rank = 0`).
     pub compression: Option<Compression>,
 }
@@ -341,6 +347,10 @@ pub fn synthesize_chunk(
     // So is the capture's exposure flicker: time jitter would show blocks
     // of differently exposed frames side by side.
     let exposure_flicker = separated.as_mut().map_or(0.0, |(_, detail)| steady_exposure(detail));
+    // And the light of the first frame, which the surface's change covers
+    // (a polished plate's reflections): quilted, it is a patchwork of
+    // bright and dark blocks over the first frames.
+    let start_light = separated.as_mut().and_then(|(_, detail)| remove_start_light(detail));
     let frames = separated.as_ref().map_or(frames, |(_, detail)| detail.as_slice());
     let weights = if params.balance { frame_balance(frames) } else { vec![1.0; n] };
     let (features, compression) = if params.rank == 0 && params.max_error.is_none() {
@@ -529,7 +539,7 @@ pub fn synthesize_chunk(
         }
         None => None,
     };
-    Ok(Ttf { frames: out, first_frame: chunk.start, plan, warps, compression, lighting, highlight, exposure_flicker })
+    Ok(Ttf { frames: out, first_frame: chunk.start, plan, warps, compression, lighting, highlight, exposure_flicker, start_light })
 }
 
 /// Patch radius of [`heal`] (5 x 5 patches, EbSynth's). 7 x 7 patches
