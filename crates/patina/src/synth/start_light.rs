@@ -18,10 +18,12 @@
 //! the local strength is
 //! a_t(x) = G_reach * (u_t P . P) / G_reach * (P . P) (the share of the
 //! light's energy within a window of [`REACH`] of the side that is still
-//! unchanged, the dot product over the colour channels), so the light goes
-//! where and when content has covered it or the plate has dulled, and a
-//! spot that appears takes the strength of the window around it. Each
-//! frame is divided by exp(a_t P) per colour channel.
+//! unchanged, the dot product over the colour channels), times the pixel's
+//! own u_t softened by 2 px, so the light goes where and when content has
+//! covered it or the plate has dulled, and content that arrives keeps its
+//! own colour: a matte salt crust does not mirror the room, and divided by
+//! the dark reflection around it, it came out clipped white. Each frame is
+//! divided by exp(a_t P) per colour channel.
 //!
 //! Not in the paper (its section 5.3 normalises one field for all frames).
 //! Simplification: the first frame's own content above the scale is taken
@@ -48,6 +50,10 @@ pub const REACH: f32 = 0.12;
 /// sigma). The frames' exposure flicker is out by then
 /// ([`crate::synth::lighting::steady_exposure`]).
 pub const UNCHANGED: f32 = 0.1;
+
+/// Sigma (px) of the blur that softens each pixel's own u before it
+/// scales the window's strength, so content's outline gets no hard step.
+const OWN_SIGMA: f32 = 2.0;
 
 /// The log colours are compared after a blur of this sigma (px), so sensor
 /// noise does not count as change.
@@ -155,15 +161,20 @@ pub fn remove_start_light(frames: &mut [Image]) -> Option<StartLightReport> {
             } else {
                 // Each pixel's light weight P . P, kept where the pixel
                 // still looks as it did (see UNCHANGED), summed over the
-                // window.
+                // window; times the pixel's own (softened) u: content that
+                // has arrived (salt crust, a matte spot) does not mirror
+                // the plate's surroundings.
                 let now = gaussian_blur(&log_colour(f, c), LOOK_SIGMA);
-                let kept = Image::from_fn(w, h, 1, |x, y, o| {
+                let unchanged = Image::from_fn(w, h, 2, |x, y, o| {
                     let i = (y * w + x) * c;
                     let change: f32 = now.data()[i..i + c].iter().zip(&start.data()[i..i + c]).map(|(a, b)| (a - b).powi(2)).sum();
                     let light: f32 = pattern[i..i + c].iter().map(|p| p * p).sum();
-                    o[0] = light * (-change / (2.0 * UNCHANGED * UNCHANGED)).exp();
+                    o[1] = (-change / (2.0 * UNCHANGED * UNCHANGED)).exp();
+                    o[0] = light * o[1];
                 });
-                gaussian_blur(&kept, reach).data().iter().zip(&energy).map(|(k, e)| (k / (e + floor)).min(1.0)).collect()
+                let share = gaussian_blur(&unchanged.select_channels(0..1), reach);
+                let own = gaussian_blur(&unchanged.select_channels(1..2), OWN_SIGMA);
+                share.data().iter().zip(&energy).zip(own.data()).map(|((k, e), u)| (k / (e + floor)).min(1.0) * u).collect()
             };
             let stride = f.channels();
             for (i, px) in f.data_mut().chunks_exact_mut(stride).enumerate() {
@@ -200,16 +211,16 @@ mod tests {
             .map(|t| {
                 Image::from_fn(SIDE, SIDE, 3, |x, y, p| {
                     let covered = y < 8 * t;
+                    let spot = t >= 6 && (x as f32 - 24.0).hypot(y as f32 - 118.0) < 5.0;
                     let side = 1.0 / (1.0 + (-(x as f32 - 64.0) / 4.0).exp());
                     let light: [f32; 3] = std::array::from_fn(|c| {
                         let (left, right) = ([1.3, 1.15, 1.0][c], [0.7, 0.75, 0.85][c]);
-                        if lit && !covered {
+                        if lit && !covered && !spot {
                             left + (right - left) * side
                         } else {
                             1.0
                         }
                     });
-                    let spot = t >= 6 && (x as f32 - 24.0).hypot(y as f32 - 118.0) < 5.0;
                     let body = if covered {
                         [0.3, 0.55, 0.5]
                     } else if spot {
@@ -259,8 +270,8 @@ mod tests {
         let open_before = split(&plate(n, true)[8], open);
         assert!(split(&frames[8], open).abs() < 0.2 * open_before.abs(), "open rows {open_before} -> {}", split(&frames[8], open));
         assert!(split(&frames[8], covered).abs() < 0.15 * before.abs(), "covered rows {}", split(&frames[8], covered));
-        // The spot that appeared keeps its contrast to the plate around it
-        // (the same ratio as without any light).
+        // The spot that appeared keeps its own colour and its contrast to
+        // the plate around it (the same ratio as without any light).
         let contrast = |f: &Image| mean(f, 1, (21, 27), (115, 121)) / mean(f, 1, (8, 16), (110, 126));
         let (got, want) = (contrast(&frames[10]), contrast(&clean[10]));
         assert!((got / want - 1.0).abs() < 0.1, "spot contrast {got} against {want}");
