@@ -95,16 +95,20 @@ fn log_colour(frame: &Image, c: usize) -> Image {
     })
 }
 
-/// The low pass of `log` (`c` channels), each channel relative to its
-/// mean, interleaved per pixel.
-fn relative_low(log: &Image, c: usize, sigma: f32) -> Vec<f32> {
-    let (w, h) = log.size();
-    let mut low = gaussian_blur(log, sigma).into_data();
+/// `values` (`c` channels interleaved), each channel less its mean.
+fn relative_to_mean(mut values: Vec<f32>, c: usize) -> Vec<f32> {
+    let pixels = (values.len() / c).max(1) as f64;
     for ch in 0..c {
-        let mean = low.iter().skip(ch).step_by(c).map(|&v| v as f64).sum::<f64>() / (w * h).max(1) as f64;
-        low.iter_mut().skip(ch).step_by(c).for_each(|v| *v -= mean as f32);
+        let mean = values.iter().skip(ch).step_by(c).map(|&v| v as f64).sum::<f64>() / pixels;
+        values.iter_mut().skip(ch).step_by(c).for_each(|v| *v -= mean as f32);
     }
-    low
+    values
+}
+
+/// Root mean square of `values`.
+fn rms(values: impl Iterator<Item = f32>) -> f32 {
+    let (sum, n) = values.fold((0f64, 0usize), |(s, n), x| (s + (x as f64).powi(2), n + 1));
+    (sum / n.max(1) as f64).sqrt() as f32
 }
 
 /// The per-pixel squared norm over colour channels of `a` (`c` channels
@@ -131,17 +135,11 @@ pub fn remove_start_light(frames: &mut [Image]) -> Option<StartLightReport> {
     let side = w.min(h) as f32;
     let (sigma, reach) = (side * SIGMA, side * REACH);
     let log = log_colour(first, c);
-    let mut pattern = relative_low(&log, c, sigma);
+    let low = gaussian_blur(&log, sigma);
     // Light, or the texture's own large-scale structure? See LIGHT_RATIO.
-    let rms = |v: &mut dyn Iterator<Item = f32>| {
-        let (sum, n) = v.fold((0f64, 0usize), |(s, n), x| (s + (x as f64).powi(2), n + 1));
-        (sum / n.max(1) as f64).sqrt() as f32
-    };
-    let fine = {
-        let low = gaussian_blur(&log, sigma);
-        rms(&mut log.data().iter().zip(low.data()).map(|(a, b)| a - b))
-    };
-    let ratio = rms(&mut pattern.iter().copied()) / fine.max(1e-6);
+    let fine = rms(log.data().iter().zip(low.data()).map(|(a, b)| a - b));
+    let mut pattern = relative_to_mean(low.into_data(), c);
+    let ratio = rms(pattern.iter().copied()) / fine.max(1e-6);
     let weight = ((ratio - LIGHT_RATIO.0) / (LIGHT_RATIO.1 - LIGHT_RATIO.0)).clamp(0.0, 1.0);
     if weight == 0.0 {
         return None;
@@ -185,7 +183,7 @@ pub fn remove_start_light(frames: &mut [Image]) -> Option<StartLightReport> {
         })
         .collect();
     Some(StartLightReport {
-        rms: rms(&mut pattern.iter().copied()),
+        rms: rms(pattern.iter().copied()),
         ratio,
         strength_middle: strengths[strengths.len() / 2],
         strength_last: *strengths.last().unwrap_or(&0.0),
