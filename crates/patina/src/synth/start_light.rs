@@ -66,8 +66,8 @@ const LOOK_SIGMA: f32 = 1.0;
 /// of its density: growing_sprouts' seeds on soil measure 0.19 and
 /// clay_solidifying's ridges 0.17 (taken for light, sprouts' seed clusters
 /// came out grey and the soil between them lifted). Light on a smooth
-/// surface is stronger than its detail: copper_patinating 2.1, the first
-/// frame of rusting_steel 2.4.
+/// surface is stronger than its detail: copper_patinating 2.4, the first
+/// frame of rusting_steel 2.6 (the manifests' `start_light_removed.ratio`).
 pub const LIGHT_RATIO: (f32, f32) = (0.5, 1.0);
 
 /// Offset of the logarithm (in [0, 1] units), so black stays finite.
