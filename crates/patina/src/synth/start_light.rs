@@ -89,10 +89,7 @@ pub struct StartLightReport {
 
 /// The log colour of `frame`'s first `c` channels.
 fn log_colour(frame: &Image, c: usize) -> Image {
-    let (w, h) = frame.size();
-    Image::from_fn(w, h, c, |x, y, p| {
-        p.iter_mut().zip(frame.pixel(x, y)).for_each(|(o, v)| *o = (v.max(0.0) + LOG_FLOOR).ln());
-    })
+    frame.select_channels(0..c).map(|v| (v.max(0.0) + LOG_FLOOR).ln())
 }
 
 /// `values` (`c` channels interleaved), each channel less its mean.
@@ -111,14 +108,9 @@ fn rms(values: impl Iterator<Item = f32>) -> f32 {
     (sum / n.max(1) as f64).sqrt() as f32
 }
 
-/// The per-pixel squared norm over colour channels of `a` (`c` channels
-/// interleaved), blurred by `sigma`.
-fn local_energy(a: &[f32], c: usize, (w, h): (usize, usize), sigma: f32) -> Vec<f32> {
-    let dot = Image::from_fn(w, h, 1, |x, y, p| {
-        let i = (y * w + x) * c;
-        p[0] = a[i..i + c].iter().map(|u| u * u).sum();
-    });
-    gaussian_blur(&dot, sigma).into_data()
+/// A one-channel `w` x `h` image of `values`, blurred by `sigma`.
+fn blurred(values: Vec<f32>, (w, h): (usize, usize), sigma: f32) -> Image {
+    gaussian_blur(&Image::from_data(w, h, 1, values).expect("one value per pixel"), sigma)
 }
 
 /// Divide the first frame's light out of every frame of `frames` in place,
@@ -145,7 +137,9 @@ pub fn remove_start_light(frames: &mut [Image]) -> Option<StartLightReport> {
         return None;
     }
     pattern.iter_mut().for_each(|p| *p *= weight);
-    let energy = local_energy(&pattern, c, (w, h), reach);
+    // Each pixel's light weight P . P, and its sum over the window.
+    let light: Vec<f32> = pattern.chunks_exact(c).map(|p| p.iter().map(|v| v * v).sum()).collect();
+    let energy = blurred(light.clone(), (w, h), reach).into_data();
     // A window where the pattern is nearly flat has nothing to remove; the
     // floor keeps its strength from being noise over noise.
     let floor = 1e-3 * energy.iter().map(|&e| e as f64).sum::<f64>() as f32 / energy.len().max(1) as f32 + 1e-9;
@@ -157,21 +151,23 @@ pub fn remove_start_light(frames: &mut [Image]) -> Option<StartLightReport> {
             let strength: Vec<f32> = if t == 0 {
                 vec![1.0; w * h]
             } else {
-                // Each pixel's light weight P . P, kept where the pixel
-                // still looks as it did (see UNCHANGED), summed over the
-                // window; times the pixel's own (softened) u: content that
-                // has arrived (salt crust, a matte spot) does not mirror
-                // the plate's surroundings.
+                // The light weight kept where the pixel still looks as
+                // it did (u, see UNCHANGED), summed over the window; times
+                // the pixel's own (softened) u: content that has arrived
+                // (salt crust, a matte spot) does not mirror the plate's
+                // surroundings.
                 let now = gaussian_blur(&log_colour(f, c), LOOK_SIGMA);
-                let unchanged = Image::from_fn(w, h, 2, |x, y, o| {
-                    let i = (y * w + x) * c;
-                    let change: f32 = now.data()[i..i + c].iter().zip(&start.data()[i..i + c]).map(|(a, b)| (a - b).powi(2)).sum();
-                    let light: f32 = pattern[i..i + c].iter().map(|p| p * p).sum();
-                    o[1] = (-change / (2.0 * UNCHANGED * UNCHANGED)).exp();
-                    o[0] = light * o[1];
-                });
-                let share = gaussian_blur(&unchanged.select_channels(0..1), reach);
-                let own = gaussian_blur(&unchanged.select_channels(1..2), OWN_SIGMA);
+                let unchanged: Vec<f32> = now
+                    .data()
+                    .chunks_exact(c)
+                    .zip(start.data().chunks_exact(c))
+                    .map(|(a, b)| {
+                        let change: f32 = a.iter().zip(b).map(|(a, b)| (a - b).powi(2)).sum();
+                        (-change / (2.0 * UNCHANGED * UNCHANGED)).exp()
+                    })
+                    .collect();
+                let share = blurred(unchanged.iter().zip(&light).map(|(u, l)| l * u).collect(), (w, h), reach);
+                let own = blurred(unchanged, (w, h), OWN_SIGMA);
                 share.data().iter().zip(&energy).zip(own.data()).map(|((k, e), u)| (k / (e + floor)).min(1.0) * u).collect()
             };
             let stride = f.channels();
