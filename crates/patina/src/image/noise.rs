@@ -237,6 +237,14 @@ impl Layer {
     /// border, so a border segment can be told by its two cells.
     pub fn voronoi_edge(self, x: f32, y: f32, cell: f32) -> VoronoiEdge {
         let ((cx, cy), cells, side) = self.cells(x, y, cell);
+        let border = self.nearest_border((cx, cy), cells);
+        VoronoiEdge { distance: border.distance * side, id: self.cell_id(border.at, cells), across: self.cell_id(border.across, cells) }
+    }
+
+    /// The nearest feature point to (cx, cy) (cell units), its nearest
+    /// bisector and the cell across it (see [`Layer::voronoi_edge`]).
+    #[inline]
+    fn nearest_border(self, (cx, cy): (f32, f32), cells: (i32, i32)) -> Border {
         let (ix, iy) = (cx.floor() as i32, cy.floor() as i32);
         let (mut best, mut near, mut at) = (f32::MAX, (0.0, 0.0), (0, 0));
         for j in iy - 1..=iy + 1 {
@@ -248,7 +256,7 @@ impl Layer {
                 }
             }
         }
-        let (mut edge, mut across) = (f32::MAX, at);
+        let (mut distance, mut across, mut far) = (f32::MAX, at, near);
         for j in at.1 - 2..=at.1 + 2 {
             for i in at.0 - 2..=at.0 + 2 {
                 if (i, j) == at {
@@ -259,13 +267,92 @@ impl Layer {
                 let (dx, dy) = (rx - near.0, ry - near.1);
                 let len = (dx * dx + dy * dy).sqrt();
                 let d = (0.5 * (near.0 + rx) * dx + 0.5 * (near.1 + ry) * dy) / len.max(1e-6);
-                if len > 1e-6 && d < edge {
-                    (edge, across) = (d, (i, j));
+                if len > 1e-6 && d < distance {
+                    (distance, across, far) = (d, (i, j), (rx, ry));
                 }
             }
         }
-        VoronoiEdge { distance: edge * side, id: self.cell_id(at, cells), across: self.cell_id(across, cells) }
+        Border { distance, near, at, far, across }
     }
+
+    /// [`Layer::voronoi_edge`] and where (x, y) lies along its nearest
+    /// border segment: the segment is the part of the bisector of the two
+    /// cells' feature points N and A that is nearer to them than to any
+    /// other point K (each K bounds the line's parameter t on one side,
+    /// since |Q(t) - N|^2 - |Q(t) - K|^2 is linear in t), and the point's
+    /// projection onto it is measured from both ends. Each end is a
+    /// junction with a third cell, whose hash is given, so the two other
+    /// segments that meet there can be told ([`segment_hash`]).
+    pub fn voronoi_span(self, x: f32, y: f32, cell: f32) -> (VoronoiEdge, Span) {
+        let ((cx, cy), cells, side) = self.cells(x, y, cell);
+        let Border { distance, near, at, far, across } = self.nearest_border((cx, cy), cells);
+        let edge = VoronoiEdge { distance: distance * side, id: self.cell_id(at, cells), across: self.cell_id(across, cells) };
+        // The bisector Q(t) = M + t u, with the point itself at the origin.
+        let (mx, my) = (0.5 * (near.0 + far.0), 0.5 * (near.1 + far.1));
+        let (nx, ny) = (far.0 - near.0, far.1 - near.1);
+        let len = (nx * nx + ny * ny).sqrt().max(1e-6);
+        let (ux, uy) = (-ny / len, nx / len);
+        let here = -(mx * ux + my * uy);
+        let near_sq = near.0 * near.0 + near.1 * near.1;
+        // Clipped to at most 3 cells either way (a border is never longer).
+        let (mut lo, mut hi) = ((here - 3.0, 0.0f32), (here + 3.0, 0.0f32));
+        for j in at.1 - 2..=at.1 + 2 {
+            for i in at.0 - 2..=at.0 + 2 {
+                if (i, j) == at || (i, j) == across {
+                    continue;
+                }
+                let (px, py) = self.feature_point(i, j, cells);
+                let (kx, ky) = (px - cx, py - cy);
+                // a t + b <= 0 keeps Q(t) nearer N than K.
+                let (ex, ey) = (kx - near.0, ky - near.1);
+                let a = 2.0 * (ux * ex + uy * ey);
+                let b = 2.0 * (mx * ex + my * ey) + near_sq - (kx * kx + ky * ky);
+                if a.abs() < 1e-9 {
+                    continue;
+                }
+                let t = -b / a;
+                if a > 0.0 && t < hi.0 {
+                    hi = (t, self.cell_id((i, j), cells));
+                } else if a < 0.0 && t > lo.0 {
+                    lo = (t, self.cell_id((i, j), cells));
+                }
+            }
+        }
+        let span = Span { before: ((here - lo.0) * side).max(0.0), after: ((hi.0 - here) * side).max(0.0), ends: [lo.1, hi.1] };
+        (edge, span)
+    }
+}
+
+/// A hash of the border segment between the cells with hashes `a` and
+/// `b`, uniform-ish in [0, 1): the same either way round.
+#[inline]
+pub fn segment_hash(a: f32, b: f32) -> f32 {
+    (13.7 * (a + b) + 31.1 * a * b).fract()
+}
+
+/// Where a point lies along its nearest Voronoi border segment
+/// ([`Layer::voronoi_span`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Span {
+    /// Pixels from the segment's first end to the point's projection on it.
+    pub before: f32,
+    /// Pixels from the point's projection to the segment's other end.
+    pub after: f32,
+    /// The hash of the third cell that meets the segment at each end
+    /// (`before`'s end first).
+    pub ends: [f32; 2],
+}
+
+/// [`Layer::nearest_border`]'s answer, in cell units relative to the point.
+struct Border {
+    /// Distance to the nearest bisector.
+    distance: f32,
+    /// The nearest feature point, and its lattice cell.
+    near: (f32, f32),
+    at: (i32, i32),
+    /// The feature point across that bisector, and its lattice cell.
+    far: (f32, f32),
+    across: (i32, i32),
 }
 
 /// The result of [`Layer::voronoi_edge`].
@@ -283,8 +370,7 @@ impl VoronoiEdge {
     /// A hash of the nearest border segment, uniform-ish in [0, 1): the
     /// same from both of its cells.
     pub fn segment(&self) -> f32 {
-        let (a, b) = (self.id, self.across);
-        (13.7 * (a + b) + 31.1 * a * b).fract()
+        segment_hash(self.id, self.across)
     }
 }
 
@@ -382,6 +468,61 @@ mod tests {
         let (before, after) = (layer.voronoi_edge(x - 0.25, y, cell), layer.voronoi_edge(x, y, cell));
         assert_eq!(before.across, after.id);
         assert_eq!(before.segment(), after.segment());
+    }
+
+    /// A point's place along its border segment agrees with a march along
+    /// the bisector of its two cells' feature points, from the point's
+    /// projection both ways until a third feature point is nearer than
+    /// the two: the march's lengths are the span's, and the point that
+    /// takes over at each end is the third cell the span names.
+    #[test]
+    fn a_span_measures_the_segment_from_both_ends() {
+        let layer = Layer::new(7, 2);
+        let cell = 16.0;
+        let step = 1e-3;
+        for k in 0..60 {
+            let (x, y) = ((k % 10) as f32 * 9.7 + 3.1, (k / 10) as f32 * 11.3 + 1.9);
+            let (edge, span) = layer.voronoi_span(x, y, cell);
+            let (cx, cy) = (x / cell, y / cell);
+            let cells: Vec<((i32, i32), (f32, f32))> = (-4..=4)
+                .flat_map(|j| (-4..=4).map(move |i| (cx.floor() as i32 + i, cy.floor() as i32 + j)))
+                .map(|c| (c, layer.feature_point(c.0, c.1, (0, 0))))
+                .collect();
+            let d2 = |p: (f32, f32), q: (f32, f32)| (p.0 - q.0).powi(2) + (p.1 - q.1).powi(2);
+            let (at, n) = *cells.iter().min_by(|a, b| d2(a.1, (cx, cy)).total_cmp(&d2(b.1, (cx, cy)))).unwrap();
+            // The cell across: its hash, and its bisector at the border's distance
+            // (two cells can share a hash).
+            let bisector = |p: (f32, f32)| {
+                let (dx, dy) = (p.0 - n.0, p.1 - n.1);
+                ((0.5 * (p.0 + n.0) - cx) * dx + (0.5 * (p.1 + n.1) - cy) * dy) / (dx * dx + dy * dy).sqrt() * cell
+            };
+            let (across, a) = *cells
+                .iter()
+                .filter(|c| c.0 != at && layer.cell_id(c.0, (0, 0)) == edge.across)
+                .find(|c| (bisector(c.1) - edge.distance).abs() < 1e-3)
+                .expect("the cell across is among the neighbours");
+            let (ux, uy) = {
+                let (dx, dy) = (a.0 - n.0, a.1 - n.1);
+                let len = (dx * dx + dy * dy).sqrt();
+                (-dy / len, dx / len)
+            };
+            let (mx, my) = (0.5 * (n.0 + a.0), 0.5 * (n.1 + a.1));
+            let here = (cx - mx) * ux + (cy - my) * uy;
+            let march = |sign: f32| {
+                let mut t = here;
+                loop {
+                    t += sign * step;
+                    let q = (mx + t * ux, my + t * uy);
+                    let dn = d2(n, q);
+                    if let Some(k) = cells.iter().find(|c| c.0 != at && c.0 != across && d2(c.1, q) < dn) {
+                        return ((t - here).abs() * cell, layer.cell_id(k.0, (0, 0)));
+                    }
+                }
+            };
+            let ((before, first), (after, second)) = (march(-1.0), march(1.0));
+            assert!((span.before - before).abs() < 0.05 && (span.after - after).abs() < 0.05, "({x}, {y}): {span:?} vs {before} {after}");
+            assert_eq!(span.ends, [first, second], "({x}, {y})");
+        }
     }
 
     #[test]
