@@ -60,7 +60,7 @@ pub struct Args {
     /// With --mask auto: a pixel X,Y (from the top left) on the object to decay [default: the main object].
     #[arg(long, value_parser = crate::object::parse_point)]
     pub point: Option<(usize, usize)>,
-    /// Decay class: rust, peeling, cracked or mossy.
+    /// Decay class: rust (a crust on paint and metal, an iron stain that runs down bare stone or plaster), peeling, cracked or mossy.
     #[arg(long, value_parser = parse_class, default_value = "rust")]
     pub class: DecayClass,
     /// Output folder.
@@ -171,6 +171,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     p["transition"] = json!(prepared.transition);
     p["substrate"] = json!(prepared.substrate);
+    // Rust on bare stone or plaster is an iron stain seen through, not a crust.
+    p["stained"] = json!(prepared.stained);
     p["transition_source"] = json!(match &synthesized {
         Some(FromExemplar { transition: Some(_), .. }) => "exemplar",
         _ => "class",

@@ -159,6 +159,57 @@ pub fn darkened_photo(photo: &Image, texture: &Image, shading: &Image, surface: 
     out
 }
 
+/// Optical density of iron oxide per colour channel (linear sRGB),
+/// relative: it absorbs blue most and red least, so a stain darkens
+/// towards orange-brown.
+const IRON_ABSORPTION: [f32; 3] = [0.35, 1.0, 1.8];
+/// Optical density (times [`IRON_ABSORPTION`]) of the densest stain: it
+/// passes about a third of the light (luminance), a brown.
+const STAIN_DENSITY: f32 = 1.6;
+/// The least density of a stained texel: the lightest of the texture's
+/// rust still tints the stone.
+const STAIN_FLOOR: f32 = 0.35;
+/// Wavelength (pixels) of [`stained_photo`]'s streaks across the face ...
+const STREAK_WIDTH: f32 = 16.0;
+/// ... and how many times longer they run down it.
+const STREAK_LENGTH: f32 = 10.0;
+
+/// Rust soaked into stone or plaster ([`super::DecayClass::stains`]), in
+/// Lab: the photo's linear colour through an iron-oxide glaze (Beer-Lambert,
+/// T_c = exp(-rho k a_c) with a_c [`IRON_ABSORPTION`]), divided by the
+/// `shading` that [`composite`] applies again, so the stone's grain,
+/// carving and lettering show through. The glaze's density rho follows
+/// the rust texture's darkness: its log luminance placed between the
+/// texture's 5th and 95th percentiles (darkest 1, lightest
+/// [`STAIN_FLOOR`]); the texture's scale and pits become denser spots.
+/// Water carries the oxide down the face, so the density is streaked
+/// along the image's vertical (fBm [`STREAK_LENGTH`] times longer down
+/// than across, scaling it by 0.6 to 1.4; `seed` draws the streaks).
+pub fn stained_photo(photo: &Image, texture: &Image, shading: &Image, seed: u64) -> Image {
+    let luma = |c: &[f32]| (0..3).map(|k| LUMA[k] * srgb_to_linear(c[k])).sum::<f32>().max(1e-4).ln();
+    let mut logs: Vec<f32> = texture.data().chunks_exact(texture.channels()).map(luma).collect();
+    let (dark, light) = {
+        let lo = crate::image::order::quantile(&mut logs, 0.05).unwrap_or(0.0);
+        let hi = crate::image::order::quantile(&mut logs, 0.95).unwrap_or(0.0);
+        (lo, hi.max(lo + 1e-3))
+    };
+    let (w, h) = photo.size();
+    let streaks = crate::image::noise::Layer::new(seed, 0x57a1);
+    let mut out = Image::new(w, h, 3);
+    out.data_mut().par_chunks_mut(3).enumerate().for_each(|(i, o)| {
+        let (p, t) = (&photo.data()[i * 3..i * 3 + 3], &texture.data()[i * texture.channels()..]);
+        let rank = ((light - luma(t)) / (light - dark)).clamp(0.0, 1.0);
+        let (x, y) = ((i % w) as f32, (i / w) as f32);
+        let streak = 1.0 + 0.4 * streaks.fbm(x, y / STREAK_LENGTH, STREAK_WIDTH, 3, 0.5).clamp(-1.0, 1.0) * 2.0;
+        let rho = (STAIN_FLOOR + (1.0 - STAIN_FLOOR) * rank) * streak.clamp(0.6, 1.4);
+        let s = shading.data()[i].max(0.05);
+        o.copy_from_slice(&linear_pixel_to_lab(
+            [0, 1, 2].map(|c| srgb_to_linear(p[c]) * (-rho * STAIN_DENSITY * IRON_ABSORPTION[c]).exp() / s),
+        ));
+    });
+    out
+}
+
 /// The quantile of the photo's chroma and lightness that [`adapt_to_scene`]
 /// takes as the scene's most saturated colour and its white.
 const SCENE_QUANTILE: f32 = 0.95;

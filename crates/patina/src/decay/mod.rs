@@ -153,6 +153,8 @@ pub struct Prepared {
     pub light: [f32; 2],
     /// The decay layer's relief on this object ([`DecayClass::relief`]).
     pub relief: layer::Relief,
+    /// The texture is the photo seen through a stain ([`composite::stained_photo`]).
+    pub stained: bool,
     params: DecayParams,
 }
 
@@ -242,8 +244,11 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
             }
         });
     }
+    let stained = params.class.stains(substrate) && inputs.texture.is_none();
     let texture_lab = if params.class.photo_relative() && inputs.texture.is_none() {
         composite::darkened_photo(photo, &focused, &shading, texture::CRACKED_SURFACE)
+    } else if stained {
+        composite::stained_photo(photo, &focused, &shading, seed)
     } else {
         // The texture's own material under the photo's light, then (for
         // peeling on an unpainted object) moved to the object's colours.
@@ -297,7 +302,9 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
         transition: inputs.transition.unwrap_or_else(|| params.class.transition()),
         substrate,
         light,
-        relief: params.class.relief(substrate),
+        // A stain has no thickness of its own.
+        relief: if stained { layer::Relief::FLAT } else { params.class.relief(substrate) },
+        stained,
         params: params.clone(),
     })
 }

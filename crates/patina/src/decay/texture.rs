@@ -187,6 +187,17 @@ impl DecayClass {
         self == DecayClass::Cracked
     }
 
+    /// Whether the class's decay on `substrate` is a stain in the
+    /// object's own surface rather than a layer on it: iron oxide on
+    /// stone or plaster soaks in (a glaze over the stone's grain and
+    /// carving, see [`super::composite::stained_photo`]); on metal it
+    /// grows a crust. Crusted rust on a gravestone read as "one even,
+    /// saturated darkness that erases the stone texture", and on a white
+    /// statue as red powder hiding the face.
+    pub fn stains(self, substrate: Substrate) -> bool {
+        self == DecayClass::Rust && substrate.is_stony()
+    }
+
     /// The class's name on the command line.
     pub fn name(self) -> &'static str {
         match self {
