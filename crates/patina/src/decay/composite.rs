@@ -169,6 +169,8 @@ const STAIN_DENSITY: f32 = 1.6;
 /// The least density of a stained texel: the lightest of the texture's
 /// rust still tints the stone.
 const STAIN_FLOOR: f32 = 0.35;
+/// Gaussian (pixels) that softens [`stained_photo`]'s density.
+const STAIN_SOFTNESS: f32 = 2.0;
 /// Wavelength (pixels) of [`stained_photo`]'s streaks across the face ...
 const STREAK_WIDTH: f32 = 16.0;
 /// ... and how many times longer they run down it.
@@ -179,15 +181,22 @@ const STREAK_LENGTH: f32 = 10.0;
 /// T_c = exp(-rho k a_c) with a_c [`IRON_ABSORPTION`]), divided by the
 /// `shading` that [`composite`] applies again, so the stone's grain,
 /// carving and lettering show through. The glaze's density rho follows
-/// the rust texture's darkness: its log luminance placed between the
-/// texture's 5th and 95th percentiles (darkest 1, lightest
-/// [`STAIN_FLOOR`]); the texture's scale and pits become denser spots.
+/// the rust texture's darkness: its log luminance, blurred by
+/// [`STAIN_SOFTNESS`], placed between its 5th and 95th percentiles
+/// (darkest 1, lightest [`STAIN_FLOOR`]).
 /// Water carries the oxide down the face, so the density is streaked
 /// along the image's vertical (fBm [`STREAK_LENGTH`] times longer down
 /// than across, scaling it by 0.6 to 1.4; `seed` draws the streaks).
 pub fn stained_photo(photo: &Image, texture: &Image, shading: &Image, seed: u64) -> Image {
     let luma = |c: &[f32]| (0..3).map(|k| LUMA[k] * srgb_to_linear(c[k])).sum::<f32>().max(1e-4).ln();
-    let mut logs: Vec<f32> = texture.data().chunks_exact(texture.channels()).map(luma).collect();
+    // A stain is diffuse: the crust's scale plates and pits are blurred out
+    // of its density (they showed as 4-6 px orange blocks).
+    let density = gaussian_blur(
+        &Image::from_data(texture.width(), texture.height(), 1, texture.data().chunks_exact(texture.channels()).map(luma).collect())
+            .expect("one value per texel"),
+        STAIN_SOFTNESS,
+    );
+    let mut logs = density.data().to_vec();
     let (dark, light) = {
         let lo = crate::image::order::quantile(&mut logs, 0.05).unwrap_or(0.0);
         let hi = crate::image::order::quantile(&mut logs, 0.95).unwrap_or(0.0);
@@ -197,11 +206,11 @@ pub fn stained_photo(photo: &Image, texture: &Image, shading: &Image, seed: u64)
     let streaks = crate::image::noise::Layer::new(seed, 0x57a1);
     let mut out = Image::new(w, h, 3);
     out.data_mut().par_chunks_mut(3).enumerate().for_each(|(i, o)| {
-        let (p, t) = (&photo.data()[i * 3..i * 3 + 3], &texture.data()[i * texture.channels()..]);
-        let rank = ((light - luma(t)) / (light - dark)).clamp(0.0, 1.0);
+        let p = &photo.data()[i * 3..i * 3 + 3];
+        let rank = ((light - density.data()[i]) / (light - dark)).clamp(0.0, 1.0);
         let (x, y) = ((i % w) as f32, (i / w) as f32);
-        let streak = 1.0 + 0.4 * streaks.fbm(x, y / STREAK_LENGTH, STREAK_WIDTH, 3, 0.5).clamp(-1.0, 1.0) * 2.0;
-        let rho = (STAIN_FLOOR + (1.0 - STAIN_FLOOR) * rank) * streak.clamp(0.6, 1.4);
+        let streak = (1.0 + 0.8 * streaks.fbm(x, y / STREAK_LENGTH, STREAK_WIDTH, 3, 0.5)).clamp(0.6, 1.4);
+        let rho = (STAIN_FLOOR + (1.0 - STAIN_FLOOR) * rank) * streak;
         let s = shading.data()[i].max(0.05);
         o.copy_from_slice(&linear_pixel_to_lab(
             [0, 1, 2].map(|c| srgb_to_linear(p[c]) * (-rho * STAIN_DENSITY * IRON_ABSORPTION[c]).exp() / s),

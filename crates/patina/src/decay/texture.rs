@@ -610,7 +610,7 @@ fn fractured(g: &Generator, x: f32, y: f32) -> [f32; 4] {
         }
     };
     let taper = tip(span.ends[0], span.before).min(tip(span.ends[1], span.after));
-    let width = (1.33 * (3.1 * g.layer(5).fbm(x, y, 35.0, 2, 0.5)).exp()).min(4.0) * taper;
+    let width = (1.7 * (2.6 * g.layer(5).fbm(x, y, 35.0, 2, 0.5)).exp()).min(4.0) * taper;
     // A line of `width` covers a pixel at distance d from its axis by about
     // (width / 2 + 1/2 - d), clamped to [0, 1], and by no more than its
     // width when it is thinner than the pixel.
@@ -674,30 +674,39 @@ fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale;
     let clump = g.layer(0).warped(x, y, 45.0 * s, 5, 20.0 * s);
     let cover = smoothstep(-0.1, 0.25, clump);
-    // A cushion's dome: its height rises from the cell border inward,
-    // lower where the clump thins out; lit where it rises towards the light.
-    let cushions = g.layer(1);
-    let cell = 22.0 * s;
+    // A cushion's dome: a rounded cap over its cell, from the cell border
+    // inward, lower where the clump thins out. Cushions come in two sizes,
+    // the larger where a slow field says so, so they are not one even
+    // pebble size.
     let (wx, wy) = (g.layer(9).fbm(x, y, 8.0, 2, 0.5), g.layer(10).fbm(x, y, 8.0, 2, 0.5));
+    let large = smoothstep(-0.15, 0.15, g.layer(11).fbm(x, y, 70.0 * s, 2, 0.5));
     let dome = |x: f32, y: f32| {
-        let c = cushions.worley(x + 8.0 * wx, y + 8.0 * wy, cell);
-        (smoothstep(0.0, 0.5 * cell, c.border()) * (0.2 + 0.8 * cover) * (0.8 + 0.4 * c.id), c.id)
+        let (x, y) = (x + 8.0 * wx, y + 8.0 * wy);
+        let (small, big) = (g.layer(1).worley(x, y, 14.0 * s), g.layer(12).worley(x, y, 30.0 * s));
+        let (c, cell) = if large > 0.5 { (big, 30.0 * s) } else { (small, 14.0 * s) };
+        let r = (c.border() / (0.5 * cell)).min(1.0);
+        let cap = (1.0 - (1.0 - r) * (1.0 - r)).sqrt();
+        (cap * (0.25 + 0.75 * cover) * (0.75 + 0.5 * c.id), c.id)
     };
     let (height, id) = dome(x, y);
-    let towards_light = height - dome(x - 2.5, y - 2.5).0;
-    let lit = (1.0 + 1.6 * towards_light).clamp(0.55, 1.35);
-    let crevice = 0.7 + 0.3 * smoothstep(0.0, 0.4, height);
+    // Lambert on the cap, lit from the top left: the whole cushion shades
+    // round, not a bright crescent on its lit rim (reviewers: polka dots).
+    let (hx, hy) = (dome(x + 1.5, y).0 - dome(x - 1.5, y).0, dome(x, y + 1.5).0 - dome(x, y - 1.5).0);
+    let lit = (1.0 - 1.4 * (0.6 * hx + 0.6 * hy)).clamp(0.7, 1.2);
+    let crevice = 0.65 + 0.35 * smoothstep(0.0, 0.5, height);
     // Tips of two sizes, their size varying across the cushion.
     let (b1, b2) = (g.layer(5).worley(x, y, 2.0), g.layer(6).worley(x, y, 3.2));
     let size = 0.8 + 0.4 * g.layer(7).fbm(x, y, 10.0, 2, 0.5);
     let tip = smoothstep(1.6 * size, 0.2, b1.f1).max(0.8 * smoothstep(2.4 * size, 0.4, b2.f1));
+    // Each cushion its own green, and about one in twenty gone dry, olive-tan.
     let hue = g.layer(2).fbm(x, y, 60.0 * s, 3, 0.5);
-    let yellow = (0.35 * g.style.variant + 0.3 * hue + 0.25 * (id - 0.5)).clamp(0.0, 1.0);
-    let dark = [0.10, 0.15, 0.04];
-    let mid = mix3([0.30, 0.42, 0.08], [0.42, 0.46, 0.10], yellow);
-    let light = mix3([0.55, 0.68, 0.18], [0.68, 0.72, 0.24], yellow);
+    let yellow = (0.35 * g.style.variant + 0.3 * hue + 0.5 * (id - 0.5)).clamp(0.0, 1.0);
+    let dry = smoothstep(0.92, 0.95, (id * 7.31).fract());
+    let dark = [0.09, 0.13, 0.04];
+    let mid = mix3(mix3([0.26, 0.38, 0.08], [0.40, 0.44, 0.10], yellow), [0.38, 0.37, 0.16], dry);
+    let light = mix3(mix3([0.46, 0.58, 0.16], [0.60, 0.64, 0.22], yellow), [0.56, 0.54, 0.28], dry);
     let fuzz = g.layer(8).fbm(x, y, 1.5, 2, 0.5);
-    let moss = ramp(&[(0.0, dark), (0.5, mid), (1.0, light)], 0.25 + 0.45 * tip + 0.15 * fuzz + 0.15 * height);
+    let moss = ramp(&[(0.0, dark), (0.5, mid), (1.0, light)], 0.25 + 0.4 * tip + 0.15 * fuzz + 0.2 * height);
     let c = moss.map(|v| v * lit * crevice);
     let ragged = g.layer(4).fbm(x, y, 3.0, 2, 0.5);
     let onset = 0.45 - 0.6 * clump + 0.16 * (id - 0.5) + 0.1 * (1.0 - height) + 0.06 * ragged;
