@@ -346,7 +346,7 @@ fn moss_starts_in_the_shade_and_cracks_anywhere() {
 }
 
 #[test]
-fn rust_starts_where_water_stands_at_the_rims_and_low_down() {
+fn rust_and_moss_start_where_water_stands_at_the_rims_and_low_down() {
     // A flat grey slab (no crevices) on a darker ground: over 4 seeds, the
     // share of Algorithm 1's blobs that lie near the outline (within 10 px)
     // or in the bottom third, over that region's share of the slab. Cracks
@@ -356,8 +356,9 @@ fn rust_starts_where_water_stands_at_the_rims_and_low_down() {
     let wet = |x: usize, y: usize| x < 40 || x >= 120 || y < 22 || y >= 81;
     let area = (0..W * H).filter(|&i| mask.bits()[i] && wet(i % W, i / W)).count() as f32 / mask.count() as f32;
     let pull = |class: DecayClass| initial_share(&input, &mask, class, wet) / area;
-    let (rust, cracks) = (pull(DecayClass::Rust), pull(DecayClass::Cracked));
+    let (rust, moss, cracks) = (pull(DecayClass::Rust), pull(DecayClass::Mossy), pull(DecayClass::Cracked));
     assert!(rust > 1.25, "rust should gather at the rims and bottom: {rust:.2}x their share");
+    assert!(moss > 1.25, "moss should gather at the rims and bottom: {moss:.2}x their share");
     assert!((0.75..1.2).contains(&cracks), "cracks have no place: {cracks:.2}x");
 }
 

@@ -32,11 +32,12 @@ pub const AFFINITY: f32 = 0.3;
 /// and relief), rust starts in crevices, seams and round bolts (dark
 /// relief), flakes lift at edges (strong relief either way); cracks have
 /// no preference (`None`). The map is the log light's z-score inside the
-/// mask, halved and held to [-1, 1]; 0 outside. Rust's adds where water
-/// stands ([`Mask::wet_places`]: the object's rims and its bottom) to half its
-/// crevice z-score before the z-score is taken, which is not halved: on a
-/// slab with no crevices, rust scattered evenly over the face like cow
-/// print.
+/// mask, halved and held to [-1, 1]; 0 outside. Rust's and moss's add where
+/// water stands ([`Mask::wet_places`]: the object's rims and its bottom) to
+/// half their crevice or shade z-score before the z-score is taken, which
+/// is not halved: on a slab with no crevices, rust scattered evenly over
+/// the face like cow print, and moss grew as one slab over a statue's lit
+/// face while its base stayed clean.
 pub fn affinity(class: DecayClass, form: &Image, relief: &Image, mask: &Mask) -> Option<Image> {
     if class == DecayClass::Cracked {
         return None;
@@ -52,15 +53,16 @@ pub fn affinity(class: DecayClass, form: &Image, relief: &Image, mask: &Mask) ->
             _ => log(r).abs(),
         })
         .collect();
-    if class == DecayClass::Rust {
-        // Water stands and runs where rust starts: at the object's rims and
-        // low down, as much as in its crevices.
+    let wet = matches!(class, DecayClass::Rust | DecayClass::Mossy);
+    if wet {
+        // Water stands and runs where rust and moss start: at the object's
+        // rims and low down, as much as in its crevices (moss: its shade).
         let crevice = mask.standardise(&values);
         let wet = mask.wet_places();
         values.iter_mut().zip(crevice).zip(wet).for_each(|((v, c), w)| *v = 0.5 * c + w);
     }
-    // Rust's places are the stronger pull: its z-score is not halved.
-    let gain = if class == DecayClass::Rust { 1.0 } else { 0.5 };
+    // Where water stands is the stronger pull: that z-score is not halved.
+    let gain = if wet { 1.0 } else { 0.5 };
     let data =
         mask.standardise(&values).into_iter().zip(mask.bits()).map(|(z, &m)| if m { (gain * z).clamp(-1.0, 1.0) } else { 0.0 }).collect();
     Some(Image::from_data(mask.width(), mask.height(), 1, data).expect("one value per pixel"))
