@@ -994,3 +994,46 @@ fn rust_stains_bare_stone_and_keeps_its_grain_and_carving() {
     let (a, b): (Vec<f32>, Vec<f32>) = shown.iter().map(|&i| (to_lab(&painted).data()[i * 3], out.data()[i * 3])).unzip();
     assert!(pearson(&a, &b) < 0.5, "rust on paint is a crust of its own: r = {}", pearson(&a, &b));
 }
+
+/// Bare stone that spalls loses the skin its carving was cut into: on a
+/// grey slab carved with grooves (half as bright as the face) under a
+/// brighter sky, fully decayed, the grooves inside the spalls sit less
+/// than 60% as far below the face in L* as they did; rust, a stain, keeps
+/// more of them.
+#[test]
+fn spalled_stone_loses_most_of_its_carving() {
+    let (w, h) = (192usize, 160usize);
+    let mask = Mask::from_fn(w, h, |x, y| (16..176).contains(&x) && (40..150).contains(&y));
+    let groove = |x: usize, y: usize| (y % 20 < 3 && y > 50 && y < 140) || (x % 28 < 3 && x > 30 && x < 160);
+    let input = Image::from_fn(w, h, 3, |x, y, p| {
+        let v = if mask.get(x, y) {
+            linear_to_srgb(0.2 * if groove(x, y) { 0.5 } else { 1.0 }) + 0.01 * (value_noise(3, x as f32, y as f32) - 0.5)
+        } else if y < 40 {
+            0.95
+        } else {
+            0.3
+        };
+        p.fill(v);
+    });
+    let full = Image::from_fn(w, h, 1, |_, _, p| p[0] = 1.0);
+    let kept = |class: DecayClass| {
+        let inputs = Inputs { mask: Some(&mask), degree: Some(&full), ..Default::default() };
+        let prep = decay::prepare(&input, inputs, &DecayParams::new(class), 3).unwrap();
+        assert_eq!(prep.substrate, Substrate::Stone);
+        let (before, after) = (to_lab(&input), to_lab(&decay::sequence(&prep, 1, 3, None).unwrap()[0].image));
+        let (mut depth, mut counts) = ([[0f32; 2]; 2], [0f32; 2]);
+        for y in 44..146usize {
+            for x in (20..172usize).filter(|&x| prep.texture.at(x, y, 3) < decay::texture::NEVER) {
+                if let Some(k) = groove_or_face(&groove, x, y) {
+                    depth[0][k] += before.at(x, y, 0);
+                    depth[1][k] += after.at(x, y, 0);
+                    counts[k] += 1.0;
+                }
+            }
+        }
+        let carving = |s: [f32; 2]| s[1] / counts[1] - s[0] / counts[0];
+        carving(depth[1]) / carving(depth[0])
+    };
+    let (spalled, stained) = (kept(DecayClass::Peeling), kept(DecayClass::Rust));
+    assert!(spalled < 0.6 && stained > spalled + 0.1, "carving kept: {spalled} in the spalls, {stained} under rust");
+}

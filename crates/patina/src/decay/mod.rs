@@ -231,8 +231,8 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     // highlight is removed from their product as the class's gloss says.
     let form = shading::estimate(photo, &mask, &params.shading);
     let relief = shading::relief(photo, &mask, &form, shading::RELIEF);
-    let mut lit = shading::under_a_layer(&form, &mask, params.class.thickness());
-    let through = params.class.relief_through();
+    let mut lit = shading::under_a_layer(&form, &mask, params.class.thickness(substrate));
+    let through = params.class.relief_through(substrate);
     lit.data_mut().iter_mut().zip(relief.data()).for_each(|(s, r)| *s *= r.powf(through));
     let shading = shading::with_gloss(&lit, &mask, params.class.gloss());
     let pull = params.class.cavity_pull();

@@ -128,11 +128,15 @@ impl DecayClass {
     /// layer: rust is a film and peeling bares the surface itself, so
     /// they show all of it; a moss cushion is millimetres thick and hides
     /// most of it (at 1, carved letters printed sharply through the moss
-    /// and a reviewer read it as a see-through overlay). The form, at
-    /// the shading window's scale, shows through every class.
-    pub fn relief_through(self) -> f32 {
+    /// and a reviewer read it as a see-through overlay). Bare stone that
+    /// spalls loses the skin the carving was cut into, so a spall keeps a
+    /// third of it (reviewers: "the carving stays crisp inside the
+    /// spalls"). The form, at the shading window's scale, shows through
+    /// every class.
+    pub fn relief_through(self, substrate: Substrate) -> f32 {
         match self {
             DecayClass::Mossy => 0.25,
+            DecayClass::Peeling if substrate == Substrate::Stone => 0.35,
             DecayClass::Rust | DecayClass::Peeling | DecayClass::Cracked => 1.0,
         }
     }
@@ -140,10 +144,13 @@ impl DecayClass {
     /// How thick the decay layer is, in pixels: detail of the form finer
     /// than this does not light it ([`super::shading::under_a_layer`]). A
     /// moss cushion hides carving a few pixels wide; rust, a flake's floor
-    /// and a crack lie on the surface itself.
-    pub fn thickness(self) -> f32 {
+    /// and a crack lie on the surface itself. A spall on bare stone is the
+    /// surface gone to below the carving: its floor takes only the form
+    /// broader than 4 px (with [`DecayClass::relief_through`]).
+    pub fn thickness(self, substrate: Substrate) -> f32 {
         match self {
             DecayClass::Mossy => 5.0,
+            DecayClass::Peeling if substrate == Substrate::Stone => 4.0,
             DecayClass::Rust | DecayClass::Peeling | DecayClass::Cracked => 0.0,
         }
     }
