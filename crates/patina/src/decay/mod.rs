@@ -211,6 +211,9 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     };
     let photo_lab = to_lab(photo);
     let substrate = Substrate::of(composite::mean_chroma(&photo_lab, &mask), is_coated_white(&photo_lab, &mask));
+    // The object's form (shading) and the photo's light, which the texture is drawn under.
+    let form = shading::estimate(photo, &mask, &params.shading);
+    let light = layer::light_direction(&form, &mask);
     let texture = match inputs.texture {
         Some(t) => {
             same("texture", t.size())?;
@@ -219,8 +222,9 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
             }
             t.clone()
         }
-        // A texture that tiles, so texture.png is a seamless material too.
-        None => texture::generate_tiling(params.class, seed, w, h, substrate)?,
+        // A texture that tiles, so texture.png is a seamless material too,
+        // its own relief lit as the photo is.
+        None => texture::generate_tiling_lit(params.class, seed, w, h, substrate, light)?,
     };
     let mut onset = texture.select_channels(3..4);
     // The texture's colour as the photo's lens would show it (its onsets stay sharp).
@@ -229,7 +233,6 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
     let focused = gaussian_blur(&texture.select_channels(0..3), soften);
     // The form (shading) and the fine relief both light the decay; the
     // highlight is removed from their product as the class's gloss says.
-    let form = shading::estimate(photo, &mask, &params.shading);
     let relief = shading::relief(photo, &mask, &form, shading::RELIEF);
     let mut lit = shading::under_a_layer(&form, &mask, params.class.thickness(substrate));
     let through = params.class.relief_through(substrate);
@@ -278,7 +281,6 @@ pub fn prepare(photo: &Image, inputs: Inputs, params: &DecayParams, seed: u64) -
             degree::initial(&mask, params.area, params.continuity, affinity.as_ref(), layout)?
         }
     };
-    let light = layer::light_direction(&form, &mask);
     let rate = match inputs.rate {
         Some(r) => {
             same("rate map", r.size())?;

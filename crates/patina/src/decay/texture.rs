@@ -272,7 +272,7 @@ impl Style {
 /// texture of `class` and `seed`. Every texel depends only on its absolute
 /// position, so windows of one texture tile it exactly.
 pub fn generate(class: DecayClass, seed: u64, x0: i64, y0: i64, width: usize, height: usize, substrate: Substrate) -> Result<Image> {
-    render(class, Generator { seed, style: Style::draw(seed), period: None, substrate }, (x0, y0), (width, height))
+    render(class, Generator { seed, style: Style::draw(seed), period: None, substrate, light: DEFAULT_LIGHT }, (x0, y0), (width, height))
 }
 
 /// Generate a `width` x `height` texture of `class` and `seed` that tiles
@@ -280,9 +280,28 @@ pub fn generate(class: DecayClass, seed: u64, x0: i64, y0: i64, width: usize, he
 /// (every noise lattice wraps around, see [`Layer::tiling`]). The same
 /// material as [`generate`]'s (on paint), not the same pixels.
 pub fn generate_tiling(class: DecayClass, seed: u64, width: usize, height: usize, substrate: Substrate) -> Result<Image> {
-    let gen = Generator { seed, style: Style::draw(seed), period: Some((width as f32, height as f32)), substrate };
+    generate_tiling_lit(class, seed, width, height, substrate, DEFAULT_LIGHT)
+}
+
+/// [`generate_tiling`] with the texture's own relief (a moss cushion's
+/// dome) lit from `light`, a unit vector in the image plane towards the
+/// light (y down; [`super::layer::light_direction`] of the photo), so the
+/// cushions take the photo's light instead of a fixed one.
+pub fn generate_tiling_lit(
+    class: DecayClass,
+    seed: u64,
+    width: usize,
+    height: usize,
+    substrate: Substrate,
+    light: [f32; 2],
+) -> Result<Image> {
+    let gen = Generator { seed, style: Style::draw(seed), period: Some((width as f32, height as f32)), substrate, light };
     render(class, gen, (0, 0), (width, height))
 }
+
+/// The light a texture is drawn under when the photo's is not known:
+/// from above and to the left (as [`super::layer::light_direction`]'s default).
+pub const DEFAULT_LIGHT: [f32; 2] = [-0.45, -0.89];
 
 /// The texels of `gen`'s `class` over the window at `(x0, y0)`.
 fn render(class: DecayClass, gen: Generator, (x0, y0): (i64, i64), (width, height): (usize, usize)) -> Result<Image> {
@@ -316,6 +335,8 @@ struct Generator {
     period: Option<(f32, f32)>,
     /// What the decay grows on.
     substrate: Substrate,
+    /// Towards the light in the image plane (unit, y down).
+    light: [f32; 2],
 }
 
 /// What a decay texture is made for: some decay takes a different form
@@ -696,10 +717,11 @@ fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
         (cap * (0.25 + 0.75 * cover) * (0.75 + 0.5 * c.id), c.id)
     };
     let (height, id) = dome(x, y);
-    // Lambert on the cap, lit from the top left: the whole cushion shades
-    // round, not a bright crescent on its lit rim (reviewers: polka dots).
+    // Lambert on the cap under the generator's light: the whole cushion
+    // shades round, not a bright crescent on its lit rim (reviewers:
+    // polka dots); a slope rising away from the light faces it.
     let (hx, hy) = (dome(x + 1.5, y).0 - dome(x - 1.5, y).0, dome(x, y + 1.5).0 - dome(x, y - 1.5).0);
-    let lit = (1.0 - 1.4 * (0.6 * hx + 0.6 * hy)).clamp(0.7, 1.2);
+    let lit = (1.0 - 0.85 * (hx * g.light[0] + hy * g.light[1])).clamp(0.7, 1.2);
     let crevice = 0.65 + 0.35 * smoothstep(0.0, 0.5, height);
     // Tips of two sizes, their size varying across the cushion.
     let (b1, b2) = (g.layer(5).worley(x, y, 2.0), g.layer(6).worley(x, y, 3.2));
@@ -734,7 +756,13 @@ mod tests {
         let (w, h) = (97, 61);
         for class in DecayClass::ALL {
             let texture = generate_tiling(class, 3, w, h, Substrate::Stone).unwrap();
-            let gen = Generator { seed: 3, style: Style::draw(3), period: Some((w as f32, h as f32)), substrate: Substrate::Stone };
+            let gen = Generator {
+                seed: 3,
+                style: Style::draw(3),
+                period: Some((w as f32, h as f32)),
+                substrate: Substrate::Stone,
+                light: DEFAULT_LIGHT,
+            };
             let shifted = render(class, gen, (-5, -3), (w, h)).unwrap();
             for (x, y) in [(0, 0), (4, 2), (3, 40), (50, 1), (0, 60)] {
                 let (sx, sy) = ((x + w - 5) % w, (y + h - 3) % h);
@@ -753,7 +781,7 @@ mod tests {
     /// axis, mid-run, the crack covers some texels and not others.
     #[test]
     fn stone_fractures_taper_to_their_tips_and_vary_in_width() {
-        let g = Generator { seed: 4, style: Style::draw(4), period: None, substrate: Substrate::Stone };
+        let g = Generator { seed: 4, style: Style::draw(4), period: None, substrate: Substrate::Stone, light: DEFAULT_LIGHT };
         let luma = |c: [f32; 4]| 0.3 * c[0] + 0.6 * c[1] + 0.1 * c[2];
         let plain = 0.3 * CRACKED_SURFACE[0] + 0.6 * CRACKED_SURFACE[1] + 0.1 * CRACKED_SURFACE[2];
         let open = |a: f32, b: f32| segment_hash(a, b) < STONE_FRACTURES;
@@ -789,6 +817,25 @@ mod tests {
         assert!(mean(&tips) < 0.5 * mean(&middles), "tips {} vs middles {}", mean(&tips), mean(&middles));
         let covered = off_axis.iter().filter(|&&d| d > 0.1).count() as f32 / off_axis.len() as f32;
         assert!((0.1..0.9).contains(&covered), "{covered} of {} texels 1.5 px off the axis covered", off_axis.len());
+    }
+
+    /// Moss cushions take the light they are drawn under: across a
+    /// cushion lit from the left, the lightness climbs steeply out of the
+    /// dark crevice onto the lit slope and falls gently over the top to the
+    /// shaded one, so the skewness of the horizontal lightness differences
+    /// (blurred past the tips) is positive; lit from the right, negative.
+    #[test]
+    fn moss_cushions_are_lit_from_the_light_they_are_drawn_under() {
+        let skew = |light: [f32; 2]| {
+            let tex = generate_tiling_lit(DecayClass::Mossy, 7, 256, 256, Substrate::Stone, light).unwrap();
+            let lum = crate::image::filter::gaussian_blur(&crate::image::color::luminance(&tex.select_channels(0..3)), 1.5);
+            let d: Vec<f32> = (0..256 * 256).map(|i| lum.data()[(i / 256) * 256 + (i % 256 + 1) % 256] - lum.data()[i]).collect();
+            let mean = d.iter().sum::<f32>() / d.len() as f32;
+            let m2 = d.iter().map(|v| (v - mean).powi(2)).sum::<f32>() / d.len() as f32;
+            d.iter().map(|v| (v - mean).powi(3)).sum::<f32>() / d.len() as f32 / m2.powf(1.5)
+        };
+        let (left, right) = (skew([-1.0, 0.0]), skew([1.0, 0.0]));
+        assert!(left > 0.1 && right < -0.1, "skewness lit from the left {left}, from the right {right}");
     }
 
     #[test]
