@@ -710,8 +710,8 @@ fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let large = smoothstep(-0.15, 0.15, g.layer(11).fbm(x, y, 70.0 * s, 2, 0.5));
     let dome = |x: f32, y: f32| {
         let (x, y) = (x + 8.0 * wx, y + 8.0 * wy);
-        let (small, big) = (g.layer(1).worley(x, y, 14.0 * s), g.layer(12).worley(x, y, 30.0 * s));
-        let (c, cell) = if large > 0.5 { (big, 30.0 * s) } else { (small, 14.0 * s) };
+        let (layer, cell) = if large > 0.5 { (g.layer(12), 30.0 * s) } else { (g.layer(1), 14.0 * s) };
+        let c = layer.worley(x, y, cell);
         let r = (c.border() / (0.5 * cell)).min(1.0);
         let cap = (1.0 - (1.0 - r) * (1.0 - r)).sqrt();
         (cap * (0.25 + 0.75 * cover) * (0.75 + 0.5 * c.id), c.id)
@@ -720,7 +720,7 @@ fn mossy(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     // Lambert on the cap under the generator's light: the whole cushion
     // shades round, not a bright crescent on its lit rim (reviewers:
     // polka dots); a slope rising away from the light faces it.
-    let (hx, hy) = (dome(x + 1.5, y).0 - dome(x - 1.5, y).0, dome(x, y + 1.5).0 - dome(x, y - 1.5).0);
+    let (hx, hy) = (2.0 * (dome(x + 1.5, y).0 - height), 2.0 * (dome(x, y + 1.5).0 - height));
     let lit = (1.0 - 0.85 * (hx * g.light[0] + hy * g.light[1])).clamp(0.7, 1.2);
     let crevice = 0.65 + 0.35 * smoothstep(0.0, 0.5, height);
     // Tips of two sizes, their size varying across the cushion.
