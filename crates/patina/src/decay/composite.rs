@@ -36,7 +36,7 @@
 //! has begun (D > 0), so pixels at D = 0 stay the photo's bytes.
 
 use super::layer::{self, Relief};
-use crate::image::color::{lab_pixel_lit, lab_pixel_to_srgb, linear_pixel_to_lab, luminance, srgb_to_linear, LUMA};
+use crate::image::color::{lab_pixel_lit, lab_pixel_to_srgb, linear_pixel_to_lab, luminance, srgb_to_linear, to_linear, LUMA};
 use crate::image::filter::{gaussian_blur, weighted_blur};
 use crate::image::noise::smoothstep;
 use crate::image::stain::StainField;
@@ -188,14 +188,10 @@ const STREAK_LENGTH: f32 = 10.0;
 /// along the image's vertical (fBm [`STREAK_LENGTH`] times longer down
 /// than across, scaling it by 0.6 to 1.4; `seed` draws the streaks).
 pub fn stained_photo(photo: &Image, texture: &Image, shading: &Image, seed: u64) -> Image {
-    let luma = |c: &[f32]| (0..3).map(|k| LUMA[k] * srgb_to_linear(c[k])).sum::<f32>().max(1e-4).ln();
     // A stain is diffuse: the crust's scale plates and pits are blurred out
     // of its density (they showed as 4-6 px orange blocks).
-    let density = gaussian_blur(
-        &Image::from_data(texture.width(), texture.height(), 1, texture.data().chunks_exact(texture.channels()).map(luma).collect())
-            .expect("one value per texel"),
-        STAIN_SOFTNESS,
-    );
+    let log_luminance = luminance(&to_linear(&texture.select_channels(0..3))).map(|v| v.max(1e-4).ln());
+    let density = gaussian_blur(&log_luminance, STAIN_SOFTNESS);
     let mut logs = density.data().to_vec();
     let (dark, light) = {
         let lo = crate::image::order::quantile(&mut logs, 0.05).unwrap_or(0.0);

@@ -586,15 +586,25 @@ fn cracked(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let small_crack = split * (1.0 - smoothstep(0.3, 0.9 + 0.3 * width, small));
     let crack = big_crack.max(0.85 * small_crack);
     let c = crack_colour(g, x, y, crack);
-    let spread = g.layer(8).fbm(x, y, 100.0 * s, 3, 0.5);
-    // A crack opens a whole border segment at a time (the segment's own
-    // onset, from its two cells), main cracks before the finer network,
-    // then widens: opening texel by texel along the degree front drew
-    // bramble-like spurs.
+    // Main cracks open before the finer network.
     let segment = if big_crack >= 0.85 * small_crack { big_edge.segment() } else { 0.15 + small_edge.segment() };
-    let onset = 0.15 - 0.45 * spread + 0.3 * (segment - 0.5) + 0.15 * (1.0 - crack);
-    let onset = if crack > 0.05 { onset.clamp(0.02, 0.95) } else { NEVER };
-    [c[0], c[1], c[2], onset]
+    [c[0], c[1], c[2], crack_onset(g, (x, y), s, segment, crack, 0.0)]
+}
+
+/// The onset of a crack texel of coverage `crack` on a border segment
+/// with hash `segment`, at style scale `s`: a crack opens a whole border
+/// segment at a time (the segment's own onset, earlier where a slow field
+/// spreads the cracking first), then widens: opening texel by texel along
+/// the degree front drew bramble-like spurs; `delay` is added. [`NEVER`]
+/// off the cracks.
+fn crack_onset(g: &Generator, (x, y): (f32, f32), s: f32, segment: f32, crack: f32, delay: f32) -> f32 {
+    let spread = g.layer(8).fbm(x, y, 100.0 * s, 3, 0.5);
+    let onset = 0.15 - 0.45 * spread + 0.3 * (segment - 0.5) + 0.15 * (1.0 - crack) + delay;
+    if crack > 0.05 {
+        onset.clamp(0.02, 0.95)
+    } else {
+        NEVER
+    }
 }
 
 /// A crack's colour at coverage `crack`: a dark grey gap, darkest at its
@@ -616,7 +626,7 @@ fn crack_colour(g: &Generator, x: f32, y: f32, crack: f32) -> [f32; 3] {
 /// segment and which segments meet at its ends); where none of the
 /// segments at a junction goes on, the crack ends, tapering to a hairline
 /// over up to [`TIP_TAPER`] pixels. Its width wanders along it between a
-/// hairline and about 3 px (log-normal fBm), and its profile is a line's
+/// hairline and 4 px (log-normal fBm, median 1.7 px), and its profile is a line's
 /// exact coverage of each pixel, so it is as sharp as the photo (the
 /// smoothstep profile of crazing read as a felt-tip stroke). The tips
 /// open last, so a crack lengthens over the frames.
@@ -647,13 +657,12 @@ fn fractured(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     // the crack, shallower than the gap, up to 3 px from its lip.
     let chip_cell = g.layer(11).worley(x, y, 5.0);
     let chipped = chip_cell.id < CHIPPED * smoothstep(1.5, 3.0, width);
-    let reach = 0.5 * width + 3.0 * chip_cell.id / CHIPPED.max(1e-6);
+    let reach = 0.5 * width + 3.0 * chip_cell.id / CHIPPED;
     let chip = if chipped { CHIP_DEPTH * (reach + 0.5 - edge.distance).clamp(0.0, 1.0) } else { 0.0 };
     let crack = line.max(chip);
     let c = crack_colour(g, x, y, crack);
-    let spread = g.layer(8).fbm(x, y, 100.0 * s, 3, 0.5);
-    let onset = 0.15 - 0.45 * spread + 0.3 * (segment_hash(edge.id, edge.across) - 0.5) + 0.15 * (1.0 - crack) + 0.25 * (1.0 - taper);
-    let onset = if crack > 0.05 { onset.clamp(0.02, 0.95) } else { NEVER };
+    // The tips open last.
+    let onset = crack_onset(g, (x, y), s, segment_hash(edge.id, edge.across), crack, 0.25 * (1.0 - taper));
     [c[0], c[1], c[2], onset]
 }
 
