@@ -53,16 +53,15 @@ pub fn affinity(class: DecayClass, form: &Image, relief: &Image, mask: &Mask) ->
             _ => log(r).abs(),
         })
         .collect();
-    let wet = matches!(class, DecayClass::Rust | DecayClass::Mossy);
-    if wet {
+    let follows_water = matches!(class, DecayClass::Rust | DecayClass::Mossy);
+    if follows_water {
         // Water stands and runs where rust and moss start: at the object's
         // rims and low down, as much as in its crevices (moss: its shade).
         let crevice = mask.standardise(&values);
-        let wet = mask.wet_places();
-        values.iter_mut().zip(crevice).zip(wet).for_each(|((v, c), w)| *v = 0.5 * c + w);
+        values.iter_mut().zip(crevice).zip(mask.wet_places()).for_each(|((v, c), w)| *v = 0.5 * c + w);
     }
     // Where water stands is the stronger pull: that z-score is not halved.
-    let gain = if wet { 1.0 } else { 0.5 };
+    let gain = if follows_water { 1.0 } else { 0.5 };
     let data =
         mask.standardise(&values).into_iter().zip(mask.bits()).map(|(z, &m)| if m { (gain * z).clamp(-1.0, 1.0) } else { 0.0 }).collect();
     Some(Image::from_data(mask.width(), mask.height(), 1, data).expect("one value per pixel"))

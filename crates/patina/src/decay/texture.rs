@@ -633,14 +633,13 @@ fn crack_colour(g: &Generator, x: f32, y: f32, crack: f32) -> [f32; 3] {
 fn fractured(g: &Generator, x: f32, y: f32) -> [f32; 4] {
     let s = g.style.scale * FRACTURE_SCALE;
     let (edge, span) = fracture_cells(g, x, y);
-    let open = |a: f32, b: f32| segment_hash(a, b) < STONE_FRACTURES;
-    if !open(edge.id, edge.across) {
+    if !fractures(edge.id, edge.across) {
         return [CRACKED_SURFACE[0], CRACKED_SURFACE[1], CRACKED_SURFACE[2], NEVER];
     }
     let length = span.before + span.after;
     let taper_length = (0.45 * length).min(TIP_TAPER * g.style.scale);
     let tip = |end: f32, along: f32| {
-        let goes_on = open(edge.id, end) || open(edge.across, end);
+        let goes_on = fractures(edge.id, end) || fractures(edge.across, end);
         if goes_on {
             1.0
         } else {
@@ -681,6 +680,12 @@ fn fracture_cells(g: &Generator, x: f32, y: f32) -> (VoronoiEdge, Span) {
 
 /// Share of the cell borders along which a stone fractures ([`fractured`]).
 const STONE_FRACTURES: f32 = 0.55;
+
+/// Whether the border between the cells with hashes `a` and `b` is one
+/// of the [`STONE_FRACTURES`] that fracture.
+fn fractures(a: f32, b: f32) -> bool {
+    segment_hash(a, b) < STONE_FRACTURES
+}
 
 /// Share of the small cells along a gaping fracture ([`fractured`]) that chip off its lip.
 const CHIPPED: f32 = 0.35;
@@ -791,19 +796,18 @@ mod tests {
     #[test]
     fn stone_fractures_taper_to_their_tips_and_vary_in_width() {
         let g = Generator { seed: 4, style: Style::draw(4), period: None, substrate: Substrate::Stone, light: DEFAULT_LIGHT };
-        let luma = |c: [f32; 4]| 0.3 * c[0] + 0.6 * c[1] + 0.1 * c[2];
-        let plain = 0.3 * CRACKED_SURFACE[0] + 0.6 * CRACKED_SURFACE[1] + 0.1 * CRACKED_SURFACE[2];
-        let open = |a: f32, b: f32| segment_hash(a, b) < STONE_FRACTURES;
+        let luma = crate::image::color::pixel_luminance;
+        let plain = luma(&CRACKED_SURFACE);
         let (mut tips, mut middles, mut off_axis) = (Vec::new(), Vec::new(), Vec::new());
         for y in 0..600 {
             for x in 0..600 {
                 let (x, y) = (x as f32, y as f32);
                 let (edge, span) = fracture_cells(&g, x, y);
-                if !open(edge.id, edge.across) {
+                if !fractures(edge.id, edge.across) {
                     continue;
                 }
-                let free = |end: f32| !open(edge.id, end) && !open(edge.across, end);
-                let dark = 1.0 - luma(fractured(&g, x, y)) / plain;
+                let free = |end: f32| !fractures(edge.id, end) && !fractures(edge.across, end);
+                let dark = 1.0 - luma(&fractured(&g, x, y)) / plain;
                 let to_free_end = [(span.ends[0], span.before), (span.ends[1], span.after)]
                     .iter()
                     .filter(|(end, _)| free(*end))

@@ -237,7 +237,12 @@ impl Layer {
     /// border, so a border segment can be told by its two cells.
     pub fn voronoi_edge(self, x: f32, y: f32, cell: f32) -> VoronoiEdge {
         let ((cx, cy), cells, side) = self.cells(x, y, cell);
-        let border = self.nearest_border((cx, cy), cells);
+        self.edge_of(&self.nearest_border((cx, cy), cells), cells, side)
+    }
+
+    /// The [`VoronoiEdge`] of `border`, in pixels of a cell `side` long.
+    #[inline]
+    fn edge_of(self, border: &Border, cells: (i32, i32), side: f32) -> VoronoiEdge {
         VoronoiEdge { distance: border.distance * side, id: self.cell_id(border.at, cells), across: self.cell_id(border.across, cells) }
     }
 
@@ -285,8 +290,9 @@ impl Layer {
     /// segments that meet there can be told ([`segment_hash`]).
     pub fn voronoi_span(self, x: f32, y: f32, cell: f32) -> (VoronoiEdge, Span) {
         let ((cx, cy), cells, side) = self.cells(x, y, cell);
-        let Border { distance, near, at, far, across } = self.nearest_border((cx, cy), cells);
-        let edge = VoronoiEdge { distance: distance * side, id: self.cell_id(at, cells), across: self.cell_id(across, cells) };
+        let border = self.nearest_border((cx, cy), cells);
+        let edge = self.edge_of(&border, cells, side);
+        let Border { near, at, far, across, .. } = border;
         // The bisector Q(t) = M + t u, with the point itself at the origin.
         let (mx, my) = (0.5 * (near.0 + far.0), 0.5 * (near.1 + far.1));
         let (nx, ny) = (far.0 - near.0, far.1 - near.1);
