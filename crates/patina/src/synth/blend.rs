@@ -105,44 +105,61 @@ fn blend_channels(
     assert_eq!(sources.len(), w * h, "one source position per pixel");
     assert_eq!(source.channels(), n, "source and composite channels differ");
     let (sw, sh) = (source.width() as u32, source.height() as u32);
-    // The seam mismatch on each horizontal (x -> x+1) and vertical (y -> y+1) edge, per channel.
-    let mismatch = |m: &mut [f32], horizontal: bool, c: usize| {
-        m.iter_mut().for_each(|v| *v = 0.0);
-        m.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, out) in row.iter_mut().enumerate() {
-                let (qx, qy) = if horizontal { (x + 1, y) } else { (x, y + 1) };
-                if qx >= w || qy >= h {
-                    continue;
+    // The edges across a seam, horizontal (x -> x+1) and vertical
+    // (y -> y+1), by the index of their first pixel: found once for every
+    // channel. Inside a block (most edges) the mismatch is zero.
+    let seams = |horizontal: bool| -> Vec<u32> {
+        let (dx, dy) = if horizontal { (1u32, 0u32) } else { (0, 1) };
+        let rows: Vec<Vec<u32>> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                let (x_end, y_next) = if horizontal { (w.saturating_sub(1), y) } else { (w, y + 1) };
+                if y_next >= h {
+                    return Vec::new();
                 }
-                let (p, q) = (sources[y * w + x], sources[qy * w + qx]);
-                let (dx, dy) = if horizontal { (1u32, 0u32) } else { (0, 1) };
-                if q == (p.0 + dx, p.1 + dy) && voted.is_none_or(|v| !v.get(x, y) && !v.get(qx, qy)) {
-                    continue;
-                }
-                let at = |s: (u32, u32)| source.at(s.0 as usize, s.1 as usize, c);
-                let mut g = 0f32;
-                let mut k = 0f32;
-                if p.0 + dx < sw && p.1 + dy < sh {
-                    g += at((p.0 + dx, p.1 + dy)) - at(p);
-                    k += 1.0;
-                }
-                if q.0 >= dx && q.1 >= dy {
-                    g += at(q) - at((q.0 - dx, q.1 - dy));
-                    k += 1.0;
-                }
-                if k > 0.0 {
-                    *out = g / k - (composite.at(qx, qy, c) - composite.at(x, y, c));
-                }
+                (0..x_end)
+                    .filter(|&x| {
+                        let (qx, qy) = (x + dx as usize, y_next);
+                        let (p, q) = (sources[y * w + x], sources[qy * w + qx]);
+                        q != (p.0 + dx, p.1 + dy) || voted.is_some_and(|v| v.get(x, y) || v.get(qx, qy))
+                    })
+                    .map(|x| (y * w + x) as u32)
+                    .collect()
+            })
+            .collect();
+        rows.concat()
+    };
+    let (seams_h, seams_v) = rayon::join(|| seams(true), || seams(false));
+    // The seam mismatch on each listed edge, for channel c: the mean of the
+    // two blocks' own gradients there less the composite's.
+    let mismatch = |m: &mut [f32], edges: &[u32], horizontal: bool, c: usize| {
+        let (dx, dy) = if horizontal { (1u32, 0u32) } else { (0, 1) };
+        let at = |s: (u32, u32)| source.at(s.0 as usize, s.1 as usize, c);
+        for &e in edges {
+            let i = e as usize;
+            let (x, y) = (i % w, i / w);
+            let (qx, qy) = (x + dx as usize, y + dy as usize);
+            let (p, q) = (sources[i], sources[qy * w + qx]);
+            let mut g = 0f32;
+            let mut k = 0f32;
+            if p.0 + dx < sw && p.1 + dy < sh {
+                g += at((p.0 + dx, p.1 + dy)) - at(p);
+                k += 1.0;
             }
-        });
+            if q.0 >= dx && q.1 >= dy {
+                g += at(q) - at((q.0 - dx, q.1 - dy));
+                k += 1.0;
+            }
+            m[i] = if k > 0.0 { g / k - (composite.at(qx, qy, c) - composite.at(x, y, c)) } else { 0.0 };
+        }
     };
     let mut out = composite.clone();
     // The mismatches and the solver's grids are reused by every channel.
     let mut solver = poisson::Solver::new(w, h);
     let (mut mh, mut mv) = (vec![0f32; w * h], vec![0f32; w * h]);
     for c in 0..n {
-        mismatch(&mut mh, true, c);
-        mismatch(&mut mv, false, c);
+        mismatch(&mut mh, &seams_h, true, c);
+        mismatch(&mut mv, &seams_v, false, c);
         if let Some(k) = outlier {
             clamp_outliers(&mut mh, &mut mv, sources, w, k);
         }

@@ -313,26 +313,26 @@ impl QuiltPlan {
     /// the `channels` values the block carries there. A time-lapse renders
     /// every frame from one plan this way (with time jitter, every block
     /// at its own time) when its cuts are not healed.
-    pub fn render_with(&self, channels: usize, sample: impl Fn(usize, (usize, usize), (usize, usize), &mut [f32])) -> Image {
-        let (bw, bh) = self.block;
+    pub fn render_with(&self, channels: usize, sample: impl Fn(usize, (usize, usize), (usize, usize), &mut [f32]) + Sync) -> Image {
+        let bw = self.block.0;
         let mut out = Image::new(self.width, self.height, channels);
-        let mut value = vec![0.0f32; channels];
-        for (i, p) in self.placements.iter().enumerate() {
-            for y in 0..bh {
+        out.data_mut().par_chunks_mut(self.width * channels).enumerate().for_each(|(oy, row)| {
+            let mut value = vec![0.0f32; channels];
+            for (i, p, y) in self.covering(oy) {
                 for x in 0..bw {
                     let k = p.keep[y * bw + x];
-                    let Some((ox, oy)) = self.output_pixel(p, x, y) else { continue };
+                    let Some(ox) = self.output_column(p, x) else { continue };
                     if k == 0.0 {
                         continue;
                     }
                     sample(i, (p.source_x + x, p.source_y + y), (ox, oy), &mut value);
-                    let d = out.pixel_mut(ox, oy);
+                    let d = &mut row[ox * channels..(ox + 1) * channels];
                     for (d, v) in d.iter_mut().zip(&value) {
                         *d = k * v + (1.0 - k) * *d;
                     }
                 }
             }
-        }
+        });
         out
     }
 
@@ -346,29 +346,41 @@ impl QuiltPlan {
         self.per_pixel(|_, p, x, y| ((p.source_x + x) as u32, (p.source_y + y) as u32), (0, 0))
     }
 
-    /// Where pixel (x, y) of placement `p` lands in the output (wrapped
-    /// when tileable), or `None` past its edge.
-    fn output_pixel(&self, p: &Placement, x: usize, y: usize) -> Option<(usize, usize)> {
-        let (ox, oy) = (p.x + x, p.y + y);
+    /// The placements covering output row `oy`, in paste order, each with
+    /// its index and its own row that lands there (wrapped when tileable).
+    fn covering(&self, oy: usize) -> impl Iterator<Item = (usize, &Placement, usize)> {
+        let bh = self.block.1;
+        self.placements.iter().enumerate().filter_map(move |(i, p)| {
+            let y = if self.wrap { (oy + self.height - p.y % self.height) % self.height } else { oy.checked_sub(p.y)? };
+            (y < bh).then_some((i, p, y))
+        })
+    }
+
+    /// The output column pixel column `x` of placement `p` lands in
+    /// (wrapped when tileable), or `None` past the output's edge.
+    fn output_column(&self, p: &Placement, x: usize) -> Option<usize> {
+        let ox = p.x + x;
         if self.wrap {
-            Some((ox % self.width, oy % self.height))
+            Some(ox % self.width)
         } else {
-            (ox < self.width && oy < self.height).then_some((ox, oy))
+            (ox < self.width).then_some(ox)
         }
     }
 
-    fn per_pixel<T: Copy>(&self, f: impl Fn(usize, &Placement, usize, usize) -> T, empty: T) -> Vec<T> {
-        let (bw, bh) = self.block;
+    /// Per output pixel, `f(placement index, placement, x, y)` of the last
+    /// placement that mostly covers it, else `empty`.
+    fn per_pixel<T: Copy + Send>(&self, f: impl Fn(usize, &Placement, usize, usize) -> T + Sync, empty: T) -> Vec<T> {
+        let bw = self.block.0;
         let mut out = vec![empty; self.width * self.height];
-        for (i, p) in self.placements.iter().enumerate() {
-            for y in 0..bh {
+        out.par_chunks_mut(self.width).enumerate().for_each(|(oy, row)| {
+            for (i, p, y) in self.covering(oy) {
                 for x in 0..bw {
-                    if let Some((ox, oy)) = self.output_pixel(p, x, y).filter(|_| p.keep[y * bw + x] >= 0.5) {
-                        out[oy * self.width + ox] = f(i, p, x, y);
+                    if let Some(ox) = self.output_column(p, x).filter(|_| p.keep[y * bw + x] >= 0.5) {
+                        row[ox] = f(i, p, x, y);
                     }
                 }
             }
-        }
+        });
         out
     }
 
@@ -378,10 +390,9 @@ impl QuiltPlan {
         let mut count = vec![0u8; self.width * self.height];
         for p in &self.placements {
             for y in 0..bh {
-                for x in 0..bw {
-                    if let Some((ox, oy)) = self.output_pixel(p, x, y) {
-                        count[oy * self.width + ox] = count[oy * self.width + ox].saturating_add(1);
-                    }
+                let oy = if self.wrap { (p.y + y) % self.height } else { p.y + y };
+                for ox in (0..bw).filter_map(|x| self.output_column(p, x)).filter(|_| oy < self.height) {
+                    count[oy * self.width + ox] = count[oy * self.width + ox].saturating_add(1);
                 }
             }
         }
