@@ -362,7 +362,7 @@ impl QuiltPlan {
         })
     }
 
-    /// The output column pixel column `x` of placement `p` lands in
+    /// The output column that column `x` of placement `p` lands in
     /// (wrapped when tileable), or `None` past the output's edge.
     fn output_column(&self, p: &Placement, x: usize) -> Option<usize> {
         let ox = p.x + x;
@@ -397,7 +397,10 @@ impl QuiltPlan {
         for p in &self.placements {
             for y in 0..bh {
                 let oy = if self.wrap { (p.y + y) % self.height } else { p.y + y };
-                for ox in (0..bw).filter_map(|x| self.output_column(p, x)).filter(|_| oy < self.height) {
+                if oy >= self.height {
+                    continue;
+                }
+                for ox in (0..bw).filter_map(|x| self.output_column(p, x)) {
                     count[oy * self.width + ox] = count[oy * self.width + ox].saturating_add(1);
                 }
             }
