@@ -120,7 +120,7 @@ pub struct Args {
     /// Stop threshold: re-search only pixels whose patch changed by at least this much after a vote (optimize; 0 = always; EbSynth's 5 of 255).
     #[arg(long, default_value_t = 5.0 / 255.0, allow_negative_numbers = true, value_parser = |s: &str| crate::flags::number(s, 0.0, 1.0))]
     pub stop_threshold: f32,
-    /// Block size, N or WxH (quilt) [default: a quarter of the exemplar's smaller side, within 8..64; on a tile grid, moved so blocks step by whole tiles and cut along the grout].
+    /// Block size, N or WxH (quilt) [default: a quarter of the exemplar's smaller side, within 8..64].
     #[arg(long, value_parser = parse_block)]
     pub block: Option<(usize, usize)>,
     /// Overlap, N or WxH (quilt) [default: block / 6].

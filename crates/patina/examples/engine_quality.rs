@@ -21,7 +21,6 @@
 //! penalty, `--relative G` the quilt's exponent of the twin error in its
 //! overlap costs,
 //! `--stagger` staggers the blocks instead of the paper's regular grid,
-//! `--no-blend` keeps the quilt's cuts without the gradient-domain blend,
 //! `--seed S` (default 3)
 //! seeds the run, `--only NAME` runs one exemplar and `--method M`
 //! (optimize or quilt) one method.
@@ -102,7 +101,6 @@ fn main() {
         quilt.cap = c;
     }
     quilt.stagger = args.iter().any(|a| a == "--stagger");
-    quilt.blend = !args.iter().any(|a| a == "--no-blend");
     optimize.lattice = quilt.lattice;
     let only = args.iter().position(|a| a == "--only").and_then(|i| args.get(i + 1)).cloned();
     let only_method = args.iter().position(|a| a == "--method").and_then(|i| args.get(i + 1)).cloned();

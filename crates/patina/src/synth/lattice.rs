@@ -219,39 +219,6 @@ impl Lattice {
         (fit(w, &|s| [s, 0.0]), fit(h, &|s| [0.0, s]))
     }
 
-    /// Per pixel of `img`, how much it differs from its copies one period
-    /// away: the mean over the integer-rounded periods (and their sums and
-    /// differences, for a grid), both ways, of the weighted squared
-    /// difference to the pixel there (where it lies inside the image). The
-    /// structure that repeats unchanged (grout, board joints, tile rims)
-    /// is near 0; what varies from repeat to repeat (one tile darker than
-    /// the next, a plank's own grain) is high. A seam laid along the low
-    /// places joins two repeats where they agree.
-    pub fn disagreement(&self, img: &Image, weights: &[f32]) -> Image {
-        let round = |p: [f32; 2]| [p[0].round() as i64, p[1].round() as i64];
-        let mut shifts: Vec<[i64; 2]> = self.periods.iter().map(|&p| round(p)).collect();
-        if let [a, b] = self.periods[..] {
-            shifts.push(round([a[0] + b[0], a[1] + b[1]]));
-            shifts.push(round([a[0] - b[0], a[1] - b[1]]));
-        }
-        let all: Vec<[i64; 2]> = shifts.iter().flat_map(|&[x, y]| [[x, y], [-x, -y]]).filter(|s| *s != [0, 0]).collect();
-        let (w, h) = (img.width() as i64, img.height() as i64);
-        Image::from_fn(img.width(), img.height(), 1, |x, y, out| {
-            let here = img.pixel(x, y);
-            let (mut sum, mut n) = (0f32, 0f32);
-            for &[dx, dy] in &all {
-                let (qx, qy) = (x as i64 + dx, y as i64 + dy);
-                if qx < 0 || qy < 0 || qx >= w || qy >= h {
-                    continue;
-                }
-                let there = img.pixel(qx as usize, qy as usize);
-                sum += here.iter().zip(there).zip(weights).map(|((a, b), k)| k * (a - b) * (a - b)).sum::<f32>();
-                n += 1.0;
-            }
-            out[0] = if n > 0.0 { sum / n } else { 0.0 };
-        })
-    }
-
     /// The misalignment still counted as aligned: 5% of the shortest
     /// period, at least 1.5 px (real structure is never exactly periodic).
     pub fn tolerance(&self) -> f32 {

@@ -23,11 +23,7 @@
 //!   whatever the block size.
 //! - Layout: the paper's regular grid by default; optionally (not in the
 //!   paper) staggered, rows of random height each with its own random
-//!   spacing, so that block outlines do not form a lattice. On an exemplar
-//!   with a grid structure (tiles), not in the paper either: blocks a
-//!   whole number of periods apart, kept in phase, with their overlaps
-//!   where the repeats agree, so the cuts follow the grout instead of
-//!   splitting tiles ([`seam_phases`]).
+//!   spacing, so that block outlines do not form a lattice.
 //! - Parallel and deterministic: a block depends on the earlier blocks it
 //!   overlaps (on the regular grid, its left, top and top-right
 //!   neighbours, so all blocks with equal 2i + j are independent); each
@@ -51,9 +47,7 @@ use std::borrow::Cow;
 #[serde(default)]
 pub struct QuiltParams {
     /// Block width and height; `None` = a quarter of the exemplar's smaller
-    /// side, clamped to 8..=64, and on a grid (a lattice of two periods)
-    /// moved so that the steps between blocks are whole periods and the
-    /// overlaps lie on the grout ([`seam_phases`]).
+    /// side, clamped to 8..=64.
     pub block: Option<(usize, usize)>,
     /// Overlap width and height; `None` = block / 6 (at least 2).
     pub overlap: Option<(usize, usize)>,
@@ -491,72 +485,6 @@ fn positions(side: usize, count: usize, step: usize, wrap: bool) -> Vec<usize> {
     (0..count).map(|j| if wrap { j * side / count } else { j * step }).collect()
 }
 
-/// The block size for quilting on `lattice`: the `block` - `overlap`
-/// steps moved to the nearest whole number of periods (each step a shift
-/// that maps the structure onto itself), so every overlap falls on the same
-/// phase of the structure. `None` when that takes a step under 3/4 or over
-/// 1.6 times the asked one, or a block over half the exemplar's side.
-fn lattice_block(lattice: &Lattice, block: (usize, usize), overlap: (usize, usize), (sw, sh): (usize, usize)) -> Option<(usize, usize)> {
-    let step = (block.0 - overlap.0, block.1 - overlap.1);
-    let fit = lattice.tile_fit(step, (3 * step.0.min(step.1)).div_ceil(4));
-    let aligned = lattice.misalignment([fit.0 as f32, 0.0]) <= 0.5 && lattice.misalignment([0.0, fit.1 as f32]) <= 0.5;
-    let near = |f: usize, s: usize| 4 * f >= 3 * s && 5 * f <= 8 * s;
-    let b = (fit.0 + overlap.0, fit.1 + overlap.1);
-    (aligned && near(fit.0, step.0) && near(fit.1, step.1) && 2 * b.0 <= sw && 2 * b.1 <= sh).then_some(b)
-}
-
-/// Share of the placements [`seam_phases`] keeps: the most agreeing tenth.
-const SEAM_PHASE_SHARE: f32 = 0.1;
-
-/// Per block placement in the exemplar (row-major over its (w - bw + 1) x
-/// (h - bh + 1) positions), whether its left and top overlap strips lie
-/// on the phase of `lattice` where the repeats agree most
-/// ([`Lattice::disagreement`] summed over the strips, averaged over the
-/// placements a whole number of periods away, which share the phase):
-/// the cheapest [`SEAM_PHASE_SHARE`]. With blocks a whole number of
-/// periods apart ([`lattice_block`]) and kept in phase, a first block
-/// drawn there lays every seam of the quilt along the grout or the board
-/// joints rather than across the tiles or boards, where neighbouring
-/// repeats differ (a dark tile cut against a light one).
-fn seam_phases(src: &Image, weights: &[f32], lattice: &Lattice, (bw, bh): (usize, usize), (ow, oh): (usize, usize)) -> Vec<bool> {
-    let (w, h) = src.size();
-    let d = lattice.disagreement(src, weights);
-    let table = SummedArea::new(w, h, |x, y| f64::from(d.at(x, y, 0)));
-    let (vw, vh) = (w - bw + 1, h - bh + 1);
-    let strips: Vec<f64> = (0..vw * vh)
-        .map(|i| (i % vw, i / vw))
-        .map(|(x, y)| table.sum(x, y, ow, bh) + table.sum(x, y, bw, oh) - table.sum(x, y, ow, oh))
-        .collect();
-    let round = |p: [f32; 2]| [p[0].round() as i64, p[1].round() as i64];
-    let (a, b) = (round(lattice.periods[0]), lattice.periods.get(1).map_or([0, 0], |&p| round(p)));
-    let reach = |p: [i64; 2]| if p == [0, 0] { 0 } else { (vw.max(vh) as i64) / p[0].abs().max(p[1].abs()).max(1) + 1 };
-    let (ra, rb) = (reach(a), reach(b));
-    let phase_mean: Vec<(f64, usize)> = (0..vw * vh)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = ((i % vw) as i64, (i / vw) as i64);
-            let (mut sum, mut n) = (0f64, 0f64);
-            for m in -ra..=ra {
-                for k in -rb..=rb {
-                    let (qx, qy) = (x + m * a[0] + k * b[0], y + m * a[1] + k * b[1]);
-                    if qx >= 0 && qy >= 0 && qx < vw as i64 && qy < vh as i64 {
-                        sum += strips[qy as usize * vw + qx as usize];
-                        n += 1.0;
-                    }
-                }
-            }
-            (sum / n, n as usize)
-        })
-        .collect();
-    // Only the phases offering the most placements: a phase near the end of
-    // a period can leave the exemplar's last row of repeats out of reach.
-    let most = phase_mean.iter().map(|&(_, n)| n).max().unwrap_or(0);
-    let mut sorted: Vec<f64> = phase_mean.iter().filter(|&&(_, n)| n == most).map(|&(v, _)| v).collect();
-    sorted.sort_by(f64::total_cmp);
-    let limit = sorted[((sorted.len() - 1) as f32 * SEAM_PHASE_SHARE) as usize];
-    phase_mean.iter().map(|&(v, n)| n == most && v <= limit).collect()
-}
-
 /// Minimum-error cut through an error surface of `cols` x `rows` (row-major),
 /// running top to bottom: for each row, the column where the cut passes.
 fn vertical_cut(err: &[f32], cols: usize, rows: usize) -> Vec<usize> {
@@ -883,10 +811,6 @@ struct Pass<'a> {
     /// ([`super::rarity::twin_error`]), for judging overlap costs against
     /// what a natural match of that material costs.
     twin: Option<&'a SummedArea>,
-    /// On a lattice, the placements whose overlaps lie where the repeats
-    /// agree ([`seam_phases`]): the first block is drawn among them, and
-    /// the lattice keeps every later one in the same phase.
-    seam_phase: Option<&'a [bool]>,
 }
 
 /// The strips of a block already covered when it is placed, where its cuts
@@ -1137,13 +1061,10 @@ impl Pass<'_> {
         let (vw, vh) = (sw - bw + 1, sh - bh + 1);
         let has_terms = m_sum > 0.0 || prev.is_some() || guide_t.is_some();
         let (sx, sy) = if !has_terms {
-            let mut free: Vec<usize> = match &self.usable {
+            let free: Vec<usize> = match &self.usable {
                 Some(u) => (0..vw * vh).filter(|&i| u[i]).collect(),
                 None => (0..vw * vh).collect(),
             };
-            if let Some(phase) = self.seam_phase.filter(|p| free.iter().any(|&i| p[i])) {
-                free.retain(|&i| phase[i]);
-            }
             let pick = free[g.gen_range(0..free.len())];
             (pick % vw, pick / vw)
         } else {
@@ -1507,17 +1428,6 @@ impl Synthesis<'_> {
         let (((lattice, drifting), rarity), (families, twin)) =
             rayon::join(|| rayon::join(detect_lattice, rarity), || rayon::join(families, twin));
         let (rarity, families, twin) = (rarity?, families?, twin?);
-        // On a grid, blocks a whole number of periods apart with their
-        // overlaps where the repeats agree (grout, tile rims), unless the
-        // caller chose the block size. Not on boards (one period): there
-        // the phase lock left a board's width of the exemplar out of reach
-        // (planks, detail completeness 0.21 -> 0.42 at seed 1), and the
-        // in-phase blocks already keep the joints whole.
-        let aligned = lattice
-            .as_ref()
-            .filter(|l| l.periods.len() == 2 && params.block.is_none() && !self.tileable && !params.stagger && guided.is_none())
-            .and_then(|l| lattice_block(l, block, overlap, src.size()).map(|b| (b, seam_phases(src, &weights, l, b, overlap))));
-        let block = aligned.as_ref().map_or(block, |(b, _)| *b);
         let mut previous: Option<Image> = None;
         let mut plan = None;
         for pass in 0..passes {
@@ -1549,7 +1459,6 @@ impl Synthesis<'_> {
                 rarity: rarity.as_ref(),
                 families: families.as_ref(),
                 twin: twin.as_ref(),
-                seam_phase: aligned.as_ref().map(|(_, p)| p.as_slice()),
             };
             if pass_state.usable.as_ref().is_some_and(|u| !u.contains(&true)) {
                 return Err(Error::invalid(format!("no {}x{} block lies wholly inside the allowed source region", pblock.0, pblock.1)));
@@ -1601,48 +1510,6 @@ mod tests {
         assert!(share_factor(blue, 1.0) < 1.0 && share_factor(red, 1.0) > 1.0);
         // Within the slack either way, nothing changes.
         assert_eq!(share_factor(0.0, 1.0), 1.0);
-    }
-
-    #[test]
-    fn on_a_grid_the_seams_run_between_the_tiles() {
-        // Discs on a 36 px grid, each its own shade: a seam through a disc
-        // joins two different discs. Share of seam edges (neighbours from
-        // different blocks) whose two exemplar pixels both lie inside a
-        // disc, with the block fitted to the grid and with the auto size
-        // forced (48 px blocks, 8 px overlaps: 40 px steps, off the grid).
-        let period = 36;
-        let src = crate::samples::disc_grid(192, 192, period, 2);
-        let inside = |x: u32, y: u32| {
-            let c = period as f32 / 2.0;
-            let (u, v) = ((x as usize % period) as f32 + 0.5 - c, (y as usize % period) as f32 + 0.5 - c);
-            (u * u + v * v).sqrt() < 0.9 * 0.47 * period as f32
-        };
-        let through_discs = |params: &QuiltParams| {
-            let (mut shares, mut block) = (Vec::new(), (0, 0));
-            for seed in [1, 2, 3] {
-                let plan = Synthesis::new(&src).size(384, 384).seed(seed).quilt(params).unwrap().plan;
-                block = plan.block;
-                let (labels, at) = (plan.labels(), plan.source_positions());
-                let (mut seams, mut cut) = (0f32, 0f32);
-                for y in 0..383 {
-                    for x in 0..383 {
-                        let i = y * 384 + x;
-                        for j in [i + 1, i + 384] {
-                            if labels[i] != labels[j] {
-                                seams += 1.0;
-                                cut += f32::from(u8::from(inside(at[i].0, at[i].1) && inside(at[j].0, at[j].1)));
-                            }
-                        }
-                    }
-                }
-                shares.push(cut / seams);
-            }
-            (shares.iter().sum::<f32>() / 3.0, block)
-        };
-        let fitted = through_discs(&QuiltParams::default());
-        let forced = through_discs(&QuiltParams { block: Some((48, 48)), overlap: Some((8, 8)), ..QuiltParams::default() });
-        assert_eq!(fitted.1, (44, 44), "a 36 px step and the 8 px overlap");
-        assert!(fitted.0 < 0.05 && forced.0 > 0.25, "seam edges through a disc: {} fitted, {} forced", fitted.0, forced.0);
     }
 
     #[test]
