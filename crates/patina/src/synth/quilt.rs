@@ -386,16 +386,12 @@ impl QuiltPlan {
 
     /// Output pixels covered by more than one block: where seams can be.
     pub fn overlap_mask(&self) -> Mask {
-        let (bw, bh) = self.block;
+        let bw = self.block.0;
         let mut count = vec![0u8; self.width * self.height];
-        for p in &self.placements {
-            for y in 0..bh {
-                let oy = if self.wrap { (p.y + y) % self.height } else { p.y + y };
-                if oy >= self.height {
-                    continue;
-                }
+        for (oy, row) in count.chunks_mut(self.width).enumerate() {
+            for (_, p, _) in self.covering(oy) {
                 for ox in (0..bw).filter_map(|x| self.output_column(p, x)) {
-                    count[oy * self.width + ox] = count[oy * self.width + ox].saturating_add(1);
+                    row[ox] = row[ox].saturating_add(1);
                 }
             }
         }
